@@ -1,0 +1,117 @@
+"""Emulated joint motor drivers, as on real legged robots.
+
+At every physics step each driver applies tau = kp (q* - q) + kd (dq* - dq) + tau_ff,
+clipped to the joint's torque limit (N m), in PyBullet torque mode. When commands stop
+arriving for longer than ``timeout`` the drivers fall back to a damping mode
+(tau = -kd_damping dq), as real drivers do, and report it through :attr:`mode`.
+"""
+
+from __future__ import annotations
+
+import enum
+
+import numpy as np
+import pybullet
+
+from safe_legged_c3bf.joint_command import JointCommand
+from safe_legged_c3bf.sim.robots import RobotHandle
+
+
+class DriverMode(enum.Enum):
+    """State of the motor drivers."""
+
+    WAITING = "waiting"  # no command received yet: damping
+    ACTIVE = "active"  # following the latest command
+    DAMPING = "damping"  # commands timed out: damping
+
+
+class MotorDriver:
+    """PD + feed-forward torque drivers for all actuated joints of one robot."""
+
+    def __init__(
+        self,
+        client: int,
+        robot: RobotHandle,
+        timeout: float = 0.1,
+        damping_kd: float = 1.0,
+    ) -> None:
+        """Create drivers for ``robot``.
+
+        Args:
+            client: PyBullet physics client id.
+            robot: the loaded robot.
+            timeout: seconds (sim time) without a command before damping mode.
+            damping_kd: damping gain in damping mode (N m s / rad).
+
+        """
+        if timeout <= 0 or damping_kd < 0:
+            raise ValueError("motor driver timeout must be > 0 and damping_kd >= 0")
+        self._client = client
+        self._robot = robot
+        self._index_of = {name: i for i, name in enumerate(robot.joint_names)}
+        n = len(robot.joint_names)
+        self.timeout = float(timeout)
+        self.damping_kd = float(damping_kd)
+        self._q = np.zeros(n)
+        self._dq = np.zeros(n)
+        self._kp = np.zeros(n)
+        self._kd = np.zeros(n)
+        self._tau = np.zeros(n)
+        self._last_command_time: float | None = None
+        self.mode = DriverMode.WAITING
+        self.rejected_commands = 0
+        self.last_torques = np.zeros(n)
+
+    def set_command(self, command: JointCommand, now: float) -> bool:
+        """Take a new command received at sim time ``now``; return False if rejected.
+
+        Commands with non-finite numbers, unknown joint names or negative gains are rejected
+        and counted; the previous command stays in force until it times out.
+        """
+        if not command.is_finite() or np.any(command.kp < 0) or np.any(command.kd < 0):
+            self.rejected_commands += 1
+            return False
+        try:
+            idx = np.array([self._index_of[name] for name in command.names], dtype=int)
+        except KeyError:
+            self.rejected_commands += 1
+            return False
+        self._q[idx] = command.q
+        self._dq[idx] = command.dq
+        self._kp[idx] = command.kp
+        self._kd[idx] = command.kd
+        self._tau[idx] = command.tau
+        self._last_command_time = now
+        return True
+
+    def compute_torques(self, q: np.ndarray, dq: np.ndarray, now: float) -> np.ndarray:
+        """Torques (N m) the drivers apply given measured joint positions and velocities."""
+        if self._last_command_time is None:
+            self.mode = DriverMode.WAITING
+        elif now - self._last_command_time > self.timeout:
+            self.mode = DriverMode.DAMPING
+        else:
+            self.mode = DriverMode.ACTIVE
+        if self.mode is DriverMode.ACTIVE:
+            tau = self._kp * (self._q - q) + self._kd * (self._dq - dq) + self._tau
+        else:
+            tau = -self.damping_kd * dq
+        return np.clip(tau, -self._robot.torque_limits, self._robot.torque_limits)
+
+    def apply(self, now: float) -> np.ndarray:
+        """Read the joints, compute and apply torques for the next physics step."""
+        states = pybullet.getJointStates(
+            self._robot.body_id, self._robot.joint_indices, physicsClientId=self._client
+        )
+        q = np.fromiter((s[0] for s in states), float, len(states))
+        dq = np.fromiter((s[1] for s in states), float, len(states))
+        tau = self.compute_torques(q, dq, now)
+        pybullet.setJointMotorControlArray(
+            self._robot.body_id,
+            self._robot.joint_indices,
+            pybullet.TORQUE_CONTROL,
+            forces=tau.tolist(),
+            physicsClientId=self._client,
+        )
+        self.last_torques = tau
+        return tau
