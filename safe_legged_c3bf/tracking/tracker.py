@@ -1,0 +1,339 @@
+"""Multi-obstacle tracker: validation, association, track management and prediction.
+
+Usage::
+
+    tracker = MultiObstacleTracker(TrackerConfig())
+    tracker.update(detections, t)            # once per detector message
+    obstacles = tracker.tracks_at(t_now)     # confirmed tracks predicted to t_now
+
+All obstacles are tracked with a 3D (x, y, z) constant-velocity Kalman filter in the odom
+frame, whatever their plane.  Bad detections are dropped before association and counted
+by :class:`RejectionReason`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from enum import StrEnum
+
+import numpy as np
+
+from safe_legged_c3bf.tracking.association import (
+    associate,
+    gate_threshold,
+    mahalanobis_cost_matrix,
+)
+from safe_legged_c3bf.tracking.track import (
+    Detection,
+    ObstaclePlane,
+    Track,
+    TrackConfig,
+    TrackedObstacle,
+)
+
+__all__ = [
+    "MultiObstacleTracker",
+    "RejectionReason",
+    "TrackerConfig",
+    "UpdateReport",
+    "validate_detection",
+]
+
+
+class RejectionReason(StrEnum):
+    """Why a detection (or a whole batch) was dropped."""
+
+    MALFORMED = "malformed"  # wrong shapes/types or unknown plane
+    NON_FINITE = "non_finite"  # NaN/Inf in centre, semi-axes, orientation; NaN extent
+    NON_POSITIVE_SIZE = "non_positive_size"  # a semi-axis or the extent <= 0
+    TOO_LARGE = "too_large"  # a semi-axis above TrackerConfig.max_semi_axis
+    WRONG_FRAME = "wrong_frame"  # frame_id differs from the tracker frame
+    OUT_OF_RANGE = "out_of_range"  # farther than TrackerConfig.max_range
+    DUPLICATE_ID = "duplicate_id"  # same non-empty id twice in one batch
+    STALE_TIMESTAMP = "stale_timestamp"  # batch older than the last processed one
+
+
+@dataclass(frozen=True)
+class TrackerConfig:
+    """Tracker parameters.
+
+    Attributes
+    ----------
+    frame_id:
+        Frame every detection must be expressed in.
+    max_range:
+        Detections farther than this from the reference point (the robot position passed
+        to :meth:`MultiObstacleTracker.update`, else the frame origin) are rejected (m).
+    max_semi_axis:
+        Detections with a larger semi-axis are rejected as implausible (m).
+    gate_probability:
+        Probability mass of the chi-square (3 dof) association gate.
+    gate_floor:
+        Standard deviation (m) added isotropically to the innovation covariance for gating
+        and assignment only.  It absorbs unmodelled maneuvers: with the low default process
+        noise the Kalman innovation covariance is a few centimetres wide, and a walking
+        obstacle that turns sharply would otherwise fall out of its own gate.
+    track:
+        Per-track filter and lifecycle parameters.
+
+    """
+
+    frame_id: str = "odom"
+    max_range: float = 15.0
+    max_semi_axis: float = 5.0
+    gate_probability: float = 0.9999
+    gate_floor: float = 0.1
+    track: TrackConfig = field(default_factory=TrackConfig)
+
+    def __post_init__(self) -> None:
+        """Validate the parameters (raises ``ValueError`` naming the bad one)."""
+        for name in ("max_range", "max_semi_axis"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and value > 0 and not math.isnan(value)):
+                raise ValueError(f"{name} must be > 0, got {value!r}")
+        if not 0.0 < self.gate_probability < 1.0:
+            raise ValueError(f"gate_probability must be in (0, 1), got {self.gate_probability!r}")
+        if not (math.isfinite(self.gate_floor) and self.gate_floor >= 0.0):
+            raise ValueError(f"gate_floor must be finite and >= 0, got {self.gate_floor!r}")
+        if not isinstance(self.track, TrackConfig):
+            raise ValueError("track must be a TrackConfig")
+
+
+@dataclass(frozen=True)
+class UpdateReport:
+    """What one :meth:`MultiObstacleTracker.update` call did.
+
+    Attributes
+    ----------
+    accepted:
+        Number of detections that passed validation.
+    rejected:
+        ``(detection_index, reason)`` for each dropped detection.
+    matched:
+        Number of detections associated with existing tracks.
+    created:
+        ``track_id`` of tracks started in this call.
+    deleted:
+        ``track_id`` of tracks deleted in this call (stale).
+
+    """
+
+    accepted: int
+    rejected: list[tuple[int, RejectionReason]]
+    matched: int
+    created: list[int]
+    deleted: list[int]
+
+
+def validate_detection(
+    detection: Detection,
+    *,
+    frame_id: str = "odom",
+    max_range: float = math.inf,
+    max_semi_axis: float = math.inf,
+    reference: Sequence[float] | np.ndarray | None = None,
+) -> RejectionReason | None:
+    """Return why ``detection`` is unusable, or ``None`` if it is fine."""
+    try:
+        center = np.asarray(detection.center, dtype=float)
+        axes = np.asarray(detection.semi_axes, dtype=float)
+        orientation = float(detection.orientation)
+        extent = float(detection.extent)
+        ObstaclePlane(detection.plane)
+        if not isinstance(detection.id, str) or not isinstance(detection.frame_id, str):
+            return RejectionReason.MALFORMED
+    except (TypeError, ValueError, AttributeError):
+        return RejectionReason.MALFORMED
+    if center.shape != (3,) or axes.shape != (2,):
+        return RejectionReason.MALFORMED
+    if not (
+        np.all(np.isfinite(center)) and np.all(np.isfinite(axes)) and math.isfinite(orientation)
+    ) or math.isnan(extent):
+        return RejectionReason.NON_FINITE
+    if np.any(axes <= 0.0) or extent <= 0.0:
+        return RejectionReason.NON_POSITIVE_SIZE
+    if np.any(axes > max_semi_axis):
+        return RejectionReason.TOO_LARGE
+    if detection.frame_id != frame_id:
+        return RejectionReason.WRONG_FRAME
+    ref = _reference_point(reference)
+    if float(np.linalg.norm(center - ref)) > max_range:
+        return RejectionReason.OUT_OF_RANGE
+    return None
+
+
+def _reference_point(reference: Sequence[float] | np.ndarray | None) -> np.ndarray:
+    """Range reference as a 3-vector; the origin if missing or unusable."""
+    if reference is None:
+        return np.zeros(3)
+    try:
+        ref = np.asarray(reference, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        return np.zeros(3)
+    if ref.size == 2:
+        ref = np.append(ref, 0.0)
+    if ref.shape != (3,) or not np.all(np.isfinite(ref)):
+        return np.zeros(3)
+    return ref
+
+
+class MultiObstacleTracker:
+    """Track several ellipse obstacles from (possibly anonymous) detections.
+
+    Parameters
+    ----------
+    config:
+        :class:`TrackerConfig`; defaults are used when omitted.
+
+    """
+
+    def __init__(self, config: TrackerConfig | None = None) -> None:
+        self.config = config if config is not None else TrackerConfig()
+        self._gate = gate_threshold(self.config.gate_probability, 3)
+        self._tracks: list[Track] = []
+        self._next_track_id = 1
+        self._last_time: float | None = None
+        self._rejections: Counter[str] = Counter()
+
+    # ------------------------------------------------------------------ state
+    @property
+    def rejection_counts(self) -> dict[str, int]:
+        """Total number of rejected detections per :class:`RejectionReason` value."""
+        return {reason.value: self._rejections[reason.value] for reason in RejectionReason}
+
+    @property
+    def tracks(self) -> list[Track]:
+        """Live tracks (tentative and confirmed), oldest first."""
+        return list(self._tracks)
+
+    @property
+    def last_update_time(self) -> float | None:
+        """Time of the last processed batch, ``None`` before the first one."""
+        return self._last_time
+
+    def reset(self) -> None:
+        """Drop all tracks and the time reference (rejection counters are kept)."""
+        self._tracks.clear()
+        self._last_time = None
+
+    # ------------------------------------------------------------------ update
+    def update(
+        self,
+        detections: Iterable[Detection],
+        t: float,
+        robot_position: Sequence[float] | np.ndarray | None = None,
+    ) -> UpdateReport:
+        """Process one batch of detections stamped ``t`` (s).
+
+        Parameters
+        ----------
+        detections:
+            Detections of one sensor message.  A tracked obstacle absent from the batch is
+            counted as a miss for its track.
+        t:
+            Time stamp of the batch.  Batches older than the previous one are rejected as a
+            whole (each detection counted as ``stale_timestamp``).
+        robot_position:
+            Reference point ``(x, y[, z])`` for the range check (odom frame); the origin if
+            omitted or not finite.
+
+        """
+        detections = list(detections)
+        t = float(t)
+        rejected: list[tuple[int, RejectionReason]] = []
+        if not math.isfinite(t) or (self._last_time is not None and t < self._last_time):
+            rejected = [(k, RejectionReason.STALE_TIMESTAMP) for k in range(len(detections))]
+            self._count(rejected)
+            return UpdateReport(0, rejected, 0, [], [])
+
+        valid: list[Detection] = []
+        seen_ids: set[str] = set()
+        cfg = self.config
+        for k, det in enumerate(detections):
+            reason = validate_detection(
+                det,
+                frame_id=cfg.frame_id,
+                max_range=cfg.max_range,
+                max_semi_axis=cfg.max_semi_axis,
+                reference=robot_position,
+            )
+            if reason is None and det.id:
+                if det.id in seen_ids:
+                    reason = RejectionReason.DUPLICATE_ID
+                seen_ids.add(det.id)
+            if reason is None:
+                valid.append(det)
+            else:
+                rejected.append((k, reason))
+        self._count(rejected)
+
+        # Association against predictions at t.
+        tracks = self._tracks
+        if tracks and valid:
+            predicted = np.empty((len(tracks), 3))
+            covs = np.empty((len(tracks), 3, 3))
+            floor = (cfg.gate_floor**2) * np.eye(3)
+            for i, trk in enumerate(tracks):
+                zhat, S = trk.predicted_measurement(t)
+                predicted[i] = zhat
+                covs[i] = S + floor
+            measured = np.array([np.asarray(d.center, dtype=float) for d in valid])
+            cost = mahalanobis_cost_matrix(predicted, covs, measured)
+        else:
+            cost = np.zeros((len(tracks), len(valid)))
+        result = associate(
+            [trk.source_id for trk in tracks],
+            [int(trk.plane) for trk in tracks],
+            [d.id for d in valid],
+            [int(d.plane) for d in valid],
+            cost,
+            self._gate,
+        )
+        for i, j in result.matches:
+            tracks[i].update(valid[j], t)
+        for i in result.unmatched_tracks:
+            tracks[i].mark_missed()
+
+        created: list[int] = []
+        for j in result.unmatched_detections:
+            trk = Track(self._next_track_id, valid[j], t, cfg.track)
+            self._next_track_id += 1
+            self._tracks.append(trk)
+            created.append(trk.track_id)
+
+        deleted: list[int] = []
+        alive: list[Track] = []
+        for trk in self._tracks:
+            if trk.is_stale(t):
+                trk.delete()
+                deleted.append(trk.track_id)
+            else:
+                alive.append(trk)
+        self._tracks = alive
+        self._last_time = t
+        return UpdateReport(len(valid), rejected, len(result.matches), created, deleted)
+
+    def _count(self, rejected: list[tuple[int, RejectionReason]]) -> None:
+        for _, reason in rejected:
+            self._rejections[reason.value] += 1
+
+    # ------------------------------------------------------------------ output
+    def tracks_at(self, t: float, include_tentative: bool = False) -> list[TrackedObstacle]:
+        """Return the tracks predicted to time ``t``, ordered by ``track_id``.
+
+        Tracks that would be stale at ``t`` (not updated for longer than their coast time,
+        e.g. because the detector stopped publishing) are left out.  Tentative tracks are
+        only included on request.
+        """
+        t = float(t)
+        if not math.isfinite(t):
+            raise ValueError("t must be finite")
+        out = []
+        for trk in self._tracks:
+            if trk.is_stale(t) or (not include_tentative and not trk.confirmed):
+                continue
+            out.append(trk.snapshot(t))
+        return out
