@@ -1,0 +1,476 @@
+"""Obstacle tracker node: /obstacles/detections + /odom -> /obstacles, /obstacles/markers.
+
+Every detection message (an ObstacleArray of noisy positions and shapes, no velocities) is
+one batch for :class:`~safe_legged_c3bf.tracking.MultiObstacleTracker`, stamped with the
+message's header stamp; the robot position from /odom is the reference of the range check.
+Detections the tracker rejects (NaN/Inf, non-positive or implausible size, wrong frame, out
+of range, duplicate id, stale stamp) are counted by reason in /diagnostics, never published.
+
+At ``rate`` Hz (sim time) the confirmed tracks are predicted to the current time and
+published on /obstacles with their velocity and position/velocity covariances (stamp = the
+time they were predicted to, frame = ``frame_id``). ``velocity_source`` is ESTIMATED once a
+track's velocity is trustworthy; before that it is UNKNOWN and, as Obstacle.msg specifies,
+the velocity is zero (``publish_unestimated_velocity`` sends the raw estimate instead).
+When no detection message came for ``detections_timeout`` s (or none yet), nothing is
+published, so that consumers see their obstacle input go stale instead of an empty world.
+
+/obstacles/markers (at ``marker_rate`` Hz) draws each obstacle's ellipse as a cylinder
+(upright, or lying along odom y for a horizontal bar), its inflated circle, a velocity arrow
+(1 s of motion) and a label; every array starts with DELETEALL so vanished tracks disappear.
+
+Changing a tracker parameter at run time restarts tracking with the new configuration (the
+rejection counters are kept).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, fields
+
+import numpy as np
+from geometry_msgs.msg import Point, Quaternion
+from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.duration import Duration
+from rclpy.node import Node
+from std_msgs.msg import ColorRGBA
+from visualization_msgs.msg import Marker, MarkerArray
+
+from safe_legged_c3bf import topics
+from safe_legged_c3bf.nodes import ros_common
+from safe_legged_c3bf.tracking import (
+    Detection,
+    MultiObstacleTracker,
+    ObstaclePlane,
+    TrackConfig,
+    TrackedObstacle,
+    TrackerConfig,
+)
+from safe_legged_c3bf_msgs.msg import Obstacle, ObstacleArray
+
+#: Tracker configuration parameters (flat names: TrackerConfig fields and TrackConfig fields).
+TRACKER_FIELDS = tuple(f.name for f in fields(TrackerConfig) if f.name != "track")
+TRACK_FIELDS = tuple(f.name for f in fields(TrackConfig))
+
+#: Node parameters that are not part of the tracker configuration, with their defaults.
+NODE_DEFAULTS: dict[str, object] = {
+    "rate": 30.0,  # Hz (sim time): /obstacles publish rate
+    "marker_rate": 10.0,  # Hz (sim time): /obstacles/markers rate; 0 disables the markers
+    "marker_inflation": 0.15,  # m added to the largest semi-axis for the inflated circle
+    "detections_timeout": 0.5,  # s (sim time) without detections -> stop publishing
+    "diagnostics_period": 1.0,  # s (sim time)
+    "publish_unestimated_velocity": False,  # send the raw velocity of UNKNOWN tracks
+}
+
+_DESCRIPTIONS = {
+    "rate": "publish rate of /obstacles (Hz, sim time), > 0",
+    "marker_rate": "publish rate of /obstacles/markers (Hz, sim time); 0 disables markers",
+    "marker_inflation": "m added to the largest semi-axis for the inflated-circle marker, >= 0",
+    "detections_timeout": "s (sim time) without detections before /obstacles stops, > 0",
+    "diagnostics_period": "period of /diagnostics (s, sim time), > 0; fixed at start-up",
+    "publish_unestimated_velocity": "publish the raw velocity of tracks whose velocity is "
+    "not yet estimated (velocity_source UNKNOWN) instead of zero",
+    "frame_id": "frame of detections and tracks (odom)",
+}
+
+#: Display length (m) of an obstacle with infinite extent.
+INFINITE_EXTENT_DISPLAY = 2.0
+MARKER_LIFETIME = 1.0  # s
+
+
+def tracker_defaults() -> dict[str, object]:
+    """Default values of every tracker parameter, keyed by parameter name."""
+    top = asdict(TrackerConfig())
+    track = top.pop("track")
+    return {**top, **track}
+
+
+def parameter_defaults() -> dict[str, object]:
+    """Default value of every parameter of the node (equal to config/obstacle_tracker.yaml)."""
+    return {**NODE_DEFAULTS, **tracker_defaults()}
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def make_tracker_config(values: dict[str, object]) -> TrackerConfig:
+    """TrackerConfig from flat parameter values; raises ValueError naming a bad one."""
+    for name in (*TRACKER_FIELDS, *TRACK_FIELDS):
+        value = values[name]
+        if name == "frame_id":
+            if not isinstance(value, str) or not value:
+                raise ValueError(f"frame_id must be a non-empty string, got {value!r}")
+        elif not _is_number(value):
+            raise ValueError(f"{name} must be a number, got {value!r}")
+    try:
+        track = TrackConfig(**{name: values[name] for name in TRACK_FIELDS})
+        return TrackerConfig(**{name: values[name] for name in TRACKER_FIELDS}, track=track)
+    except TypeError as err:
+        raise ValueError(str(err)) from None
+
+
+def check_node_parameter(name: str, value: object) -> str:
+    """Reason why ``value`` is invalid for node parameter ``name`` ('' if it is fine)."""
+    if name == "publish_unestimated_velocity":
+        return "" if isinstance(value, bool) else f"{name} must be a bool, got {value!r}"
+    if not _is_number(value) or not math.isfinite(float(value)):
+        return f"{name} must be a finite number, got {value!r}"
+    if name in ("marker_rate", "marker_inflation"):
+        return "" if value >= 0 else f"{name} must be >= 0, got {value!r}"
+    return "" if value > 0 else f"{name} must be > 0, got {value!r}"
+
+
+def detections_from_msg(msg: ObstacleArray) -> list[Detection]:
+    """Detections (unvalidated: the tracker checks them) from a detection message."""
+    return [
+        Detection(
+            center=(o.center.x, o.center.y, o.center.z),
+            semi_axes=(o.semi_axis_a, o.semi_axis_b),
+            orientation=o.orientation,
+            plane=int(o.plane),
+            id=o.id,
+            frame_id=msg.header.frame_id,
+            extent=o.extent,
+        )
+        for o in msg.obstacles
+    ]
+
+
+def obstacle_to_msg(obs: TrackedObstacle, publish_unestimated_velocity: bool = False) -> Obstacle:
+    """Obstacle message of a tracked obstacle (velocity zero when not estimated, by default)."""
+    msg = Obstacle()
+    msg.id = obs.id
+    msg.plane = Obstacle.HORIZONTAL if obs.plane == ObstaclePlane.HORIZONTAL else Obstacle.VERTICAL
+    msg.center.x, msg.center.y, msg.center.z = (float(c) for c in obs.center)
+    if obs.velocity_estimated or publish_unestimated_velocity:
+        msg.velocity.x, msg.velocity.y, msg.velocity.z = (float(v) for v in obs.velocity)
+    msg.semi_axis_a, msg.semi_axis_b = float(obs.semi_axes[0]), float(obs.semi_axes[1])
+    msg.orientation = float(obs.orientation)
+    msg.extent = float(obs.extent)
+    msg.position_covariance = [float(x) for x in np.asarray(obs.position_covariance).reshape(9)]
+    msg.velocity_covariance = [float(x) for x in np.asarray(obs.velocity_covariance).reshape(9)]
+    msg.velocity_source = (
+        Obstacle.VELOCITY_ESTIMATED if obs.velocity_estimated else Obstacle.VELOCITY_UNKNOWN
+    )
+    return msg
+
+
+def quaternion_from_matrix(R: np.ndarray) -> tuple[float, float, float, float]:
+    """Unit quaternion (x, y, z, w) of a 3x3 rotation matrix."""
+    m = np.asarray(R, dtype=float)
+    trace = m[0, 0] + m[1, 1] + m[2, 2]
+    if trace > 0.0:
+        s = 2.0 * math.sqrt(1.0 + trace)
+        q = ((m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, 0.25 * s)
+    elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
+        s = 2.0 * math.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2])
+        q = (0.25 * s, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s, (m[2, 1] - m[1, 2]) / s)
+    elif m[1, 1] > m[2, 2]:
+        s = 2.0 * math.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2])
+        q = ((m[0, 1] + m[1, 0]) / s, 0.25 * s, (m[1, 2] + m[2, 1]) / s, (m[0, 2] - m[2, 0]) / s)
+    else:
+        s = 2.0 * math.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1])
+        q = ((m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s, (m[1, 0] - m[0, 1]) / s)
+    norm = math.sqrt(sum(c * c for c in q))
+    return tuple(c / norm for c in q)  # type: ignore[return-value]
+
+
+def ellipse_rotation(plane: ObstaclePlane | int, orientation: float) -> np.ndarray:
+    """Rotation (odom <- marker) of a cylinder marker whose x axis is the ellipse's a axis.
+
+    The marker's z axis (the cylinder axis) is odom z for a VERTICAL obstacle and odom y for
+    a HORIZONTAL one, whose a axis is turned by ``orientation`` from +x towards +z.
+    """
+    c, s = math.cos(orientation), math.sin(orientation)
+    if int(plane) == ObstaclePlane.HORIZONTAL:
+        x_axis, z_axis = np.array([c, 0.0, s]), np.array([0.0, 1.0, 0.0])
+    else:
+        x_axis, z_axis = np.array([c, s, 0.0]), np.array([0.0, 0.0, 1.0])
+    return np.column_stack([x_axis, np.cross(z_axis, x_axis), z_axis])
+
+
+def _color(r: float, g: float, b: float, a: float) -> ColorRGBA:
+    return ColorRGBA(r=r, g=g, b=b, a=a)
+
+
+def obstacle_markers(
+    obstacles: list[TrackedObstacle],
+    stamp,  # noqa: ANN001 - builtin_interfaces/Time
+    frame_id: str,
+    inflation: float = 0.0,
+    show_unestimated_velocity: bool = False,
+) -> MarkerArray:
+    """MarkerArray for ``obstacles``: DELETEALL first, then ellipse, circle, arrow, label."""
+    out = MarkerArray()
+    clear = Marker(action=Marker.DELETEALL)
+    clear.header.frame_id = frame_id
+    clear.header.stamp = stamp
+    out.markers.append(clear)
+    lifetime = Duration(seconds=MARKER_LIFETIME).to_msg()
+
+    def marker(ns: str, track_id: int, kind: int) -> Marker:
+        m = Marker(ns=ns, id=int(track_id), type=kind, action=Marker.ADD)
+        m.header.frame_id = frame_id
+        m.header.stamp = stamp
+        m.lifetime = lifetime
+        m.pose.orientation.w = 1.0
+        return m
+
+    for obs in obstacles:
+        center = [float(c) for c in obs.center]
+        extent = obs.extent if math.isfinite(obs.extent) else INFINITE_EXTENT_DISPLAY
+        x, y, z, w = quaternion_from_matrix(ellipse_rotation(obs.plane, obs.orientation))
+        body = marker("obstacles", obs.track_id, Marker.CYLINDER)
+        body.pose.position = Point(x=center[0], y=center[1], z=center[2])
+        body.pose.orientation = Quaternion(x=x, y=y, z=z, w=w)
+        body.scale.x, body.scale.y = 2.0 * obs.semi_axes[0], 2.0 * obs.semi_axes[1]
+        body.scale.z = float(extent)
+        body.color = (
+            _color(0.9, 0.4, 0.1, 0.7) if obs.velocity_estimated else _color(0.6, 0.6, 0.6, 0.7)
+        )
+        out.markers.append(body)
+
+        if inflation > 0.0:
+            radius = max(obs.semi_axes) + inflation
+            ring = marker("inflated", obs.track_id, Marker.CYLINDER)
+            ring.pose.position = Point(x=center[0], y=center[1], z=center[2])
+            ring.pose.orientation = body.pose.orientation
+            ring.scale.x = ring.scale.y = 2.0 * radius
+            ring.scale.z = float(extent) if obs.plane == ObstaclePlane.HORIZONTAL else 0.01
+            if obs.plane != ObstaclePlane.HORIZONTAL:
+                ring.pose.position.z = 0.005  # a disc on the ground
+            ring.color = _color(1.0, 0.1, 0.1, 0.2)
+            out.markers.append(ring)
+
+        if obs.velocity_estimated or show_unestimated_velocity:
+            arrow = marker("velocity", obs.track_id, Marker.ARROW)
+            tip = [c + float(v) for c, v in zip(center, obs.velocity, strict=True)]
+            arrow.points = [Point(x=center[0], y=center[1], z=center[2]),
+                            Point(x=tip[0], y=tip[1], z=tip[2])]
+            arrow.scale.x, arrow.scale.y, arrow.scale.z = 0.03, 0.06, 0.08
+            arrow.color = _color(0.1, 0.4, 1.0, 0.9)
+            out.markers.append(arrow)
+
+        label = marker("labels", obs.track_id, Marker.TEXT_VIEW_FACING)
+        top = center[2] + (0.5 * extent if obs.plane != ObstaclePlane.HORIZONTAL else 0.3)
+        label.pose.position = Point(x=center[0], y=center[1], z=top + 0.15)
+        speed = f" {obs.speed:.2f} m/s" if obs.velocity_estimated else ""
+        label.text = f"{obs.id}{speed}"
+        label.scale.z = 0.15
+        label.color = _color(1.0, 1.0, 1.0, 1.0)
+        out.markers.append(label)
+    return out
+
+
+class ObstacleTrackerNode(Node):
+    """Thin rclpy wrapper around the multi-obstacle tracker."""
+
+    def __init__(self, **kwargs) -> None:
+        """Create the node; ``kwargs`` go to rclpy's Node (context, parameter_overrides...)."""
+        super().__init__("obstacle_tracker", **kwargs)
+        ros_common.use_sim_time(self)
+        for name, default in parameter_defaults().items():
+            description = _DESCRIPTIONS.get(
+                name, f"{name}: see safe_legged_c3bf/tracking (TrackerConfig/TrackConfig, SI)"
+            )
+            dynamic = _is_number(default)  # accept 15 for 15.0 (and 3.0 -> clear error)
+            descriptor = ParameterDescriptor(description=description, dynamic_typing=dynamic)
+            self.declare_parameter(name, default, descriptor)
+        values = {name: self.get_parameter(name).value for name in parameter_defaults()}
+        for name in NODE_DEFAULTS:
+            reason = check_node_parameter(name, values[name])
+            if reason:
+                raise ValueError(reason)
+        self._node_params = {name: values[name] for name in NODE_DEFAULTS}
+        self._tracker_values = {name: values[name] for name in (*TRACKER_FIELDS, *TRACK_FIELDS)}
+        self.tracker = MultiObstacleTracker(make_tracker_config(self._tracker_values))
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+
+        self._rejections_before_restart: dict[str, int] = {}
+        self._reported_rejections = 0
+        self._robot_position: tuple[float, float, float] | None = None
+        self._last_detection_time: float | None = None  # receipt time (node clock, sim)
+        self._last_marker_time: float | None = None
+        self.detection_messages = 0
+        self.published = 0
+        self.dropped_odom = 0
+        self._last_count = 0
+        self._publishing = False
+        self.last_cycle_time: float | None = None  # sim time of the last timer cycle
+
+        self._pub = self.create_publisher(
+            ObstacleArray, topics.OBSTACLES.name, ros_common.qos(topics.OBSTACLES)
+        )
+        self._marker_pub = self.create_publisher(
+            MarkerArray, topics.OBSTACLE_MARKERS.name, ros_common.qos(topics.OBSTACLE_MARKERS)
+        )
+        self._diag_pub = self.create_publisher(
+            topics.DIAGNOSTICS.msg_class(), topics.DIAGNOSTICS.name,
+            ros_common.qos(topics.DIAGNOSTICS),
+        )
+        self.create_subscription(
+            ObstacleArray, topics.OBSTACLE_DETECTIONS.name, self._on_detections,
+            ros_common.qos(topics.OBSTACLE_DETECTIONS),
+        )
+        self.create_subscription(
+            Odometry, topics.ODOM.name, self._on_odom, ros_common.qos(topics.ODOM)
+        )
+        self._timer = self.create_timer(1.0 / float(self._node_params["rate"]), self._on_timer)
+        self.create_timer(float(self._node_params["diagnostics_period"]), self._publish_diagnostics)
+
+    # -- parameters ---------------------------------------------------------------------------
+    def _on_set_parameters(self, params) -> SetParametersResult:
+        node_changes: dict[str, object] = {}
+        tracker_changes: dict[str, object] = {}
+        for p in params:
+            if p.name in NODE_DEFAULTS:
+                reason = check_node_parameter(p.name, p.value)
+                if reason:
+                    return SetParametersResult(successful=False, reason=reason)
+                if p.name == "diagnostics_period" and p.value != self._node_params[p.name]:
+                    return SetParametersResult(
+                        successful=False, reason="diagnostics_period is fixed at start-up"
+                    )
+                node_changes[p.name] = p.value
+            elif p.name in self._tracker_values:
+                tracker_changes[p.name] = p.value
+        if tracker_changes:
+            values = {**self._tracker_values, **tracker_changes}
+            try:
+                config = make_tracker_config(values)
+            except ValueError as err:
+                return SetParametersResult(successful=False, reason=str(err))
+            if values != self._tracker_values:
+                self._restart_tracker(config)
+                self._tracker_values = values
+        rate_changed = "rate" in node_changes and node_changes["rate"] != self._node_params["rate"]
+        self._node_params.update(node_changes)
+        if rate_changed:
+            self._timer.cancel()
+            self.destroy_timer(self._timer)
+            self._timer = self.create_timer(1.0 / float(self._node_params["rate"]), self._on_timer)
+        if node_changes or tracker_changes:
+            self.get_logger().info(f"parameters updated: {node_changes | tracker_changes}")
+        return SetParametersResult(successful=True)
+
+    def _restart_tracker(self, config: TrackerConfig) -> None:
+        self._rejections_before_restart = self.rejection_counts
+        self.tracker = MultiObstacleTracker(config)
+        self.get_logger().warn("tracker configuration changed: tracking restarted")
+
+    @property
+    def rejection_counts(self) -> dict[str, int]:
+        """Rejected detections per reason since the node started."""
+        counts = dict(self.tracker.rejection_counts)
+        for reason, n in self._rejections_before_restart.items():
+            counts[reason] = counts.get(reason, 0) + n
+        return counts
+
+    # -- inputs -----------------------------------------------------------------------------
+    def _now(self) -> float:
+        return ros_common.now_seconds(self)
+
+    def _on_odom(self, msg: Odometry) -> None:
+        if not ros_common.odometry_is_finite(msg):
+            self.dropped_odom += 1
+            self.get_logger().warn("dropped an /odom with NaN/Inf", throttle_duration_sec=1.0)
+            return
+        p = msg.pose.pose.position
+        self._robot_position = (p.x, p.y, p.z)
+
+    def _on_detections(self, msg: ObstacleArray) -> None:
+        now = self._now()
+        stamp = ros_common.from_time_msg(msg.header.stamp)
+        if stamp == 0.0:  # unstamped: take the receipt time
+            stamp = now
+        report = self.tracker.update(detections_from_msg(msg), stamp, self._robot_position)
+        self.detection_messages += 1
+        self._last_detection_time = now
+        if report.rejected:
+            reasons = sorted({reason.value for _, reason in report.rejected})
+            self.get_logger().warn(
+                f"rejected {len(report.rejected)} detection(s): {', '.join(reasons)}",
+                throttle_duration_sec=2.0,
+            )
+        for track_id in report.deleted:
+            self.get_logger().debug(f"track {track_id} deleted")
+
+    # -- output -----------------------------------------------------------------------------
+    def detections_stale(self, t: float) -> bool:
+        """True when no detection message arrived within ``detections_timeout`` of ``t``."""
+        last = self._last_detection_time
+        return last is None or t - last > float(self._node_params["detections_timeout"])
+
+    def _on_timer(self) -> None:
+        t = self._now()
+        self.last_cycle_time = t
+        if self.detections_stale(t):
+            if self._publishing:
+                self.get_logger().warn("detections stale: /obstacles no longer published")
+                self._publishing = False
+            return
+        if not self._publishing:
+            self.get_logger().info("detections received: publishing /obstacles")
+            self._publishing = True
+        obstacles = self.tracker.tracks_at(t)
+        self._last_count = len(obstacles)
+        stamp = ros_common.to_time_msg(t)
+        frame_id = str(self._tracker_values["frame_id"])
+        raw_velocity = bool(self._node_params["publish_unestimated_velocity"])
+        msg = ObstacleArray()
+        msg.header.stamp = stamp
+        msg.header.frame_id = frame_id
+        msg.obstacles = [obstacle_to_msg(o, raw_velocity) for o in obstacles]
+        self._pub.publish(msg)
+        self.published += 1
+
+        marker_rate = float(self._node_params["marker_rate"])
+        if marker_rate > 0.0 and (
+            self._last_marker_time is None
+            or t - self._last_marker_time >= 1.0 / marker_rate - 1e-6
+            or t < self._last_marker_time
+        ):
+            self._last_marker_time = t
+            self._marker_pub.publish(
+                obstacle_markers(
+                    obstacles, stamp, frame_id, float(self._node_params["marker_inflation"]),
+                    raw_velocity,
+                )
+            )
+
+    def _publish_diagnostics(self) -> None:
+        t = self._now()
+        counts = self.rejection_counts
+        total = sum(counts.values())
+        new_rejections = total - self._reported_rejections
+        self._reported_rejections = total
+        if self._last_detection_time is None:
+            level, text = "warn", "waiting for detections"
+        elif self.detections_stale(t):
+            level, text = "warn", "detections stale: /obstacles not published"
+        elif new_rejections:
+            level, text = "warn", f"tracking; {new_rejections} detection(s) rejected recently"
+        else:
+            level, text = "ok", "tracking"
+        tracks = self.tracker.tracks
+        values = {
+            "tracks_confirmed": sum(1 for trk in tracks if trk.confirmed),
+            "tracks_tentative": sum(1 for trk in tracks if not trk.confirmed),
+            "obstacles_published": self._last_count,
+            "detection_messages": self.detection_messages,
+            "rejected_total": total,
+            **{f"rejected_{reason}": n for reason, n in counts.items()},
+            "dropped_odom": self.dropped_odom,
+        }
+        status = ros_common.diagnostic_status("obstacle_tracker", level, text, values)
+        self._diag_pub.publish(ros_common.diagnostic_array(self, [status]))
+
+
+def main(args: list[str] | None = None) -> int:
+    """Run the obstacle tracker node as its own process."""
+    return ros_common.run_node(ObstacleTrackerNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
