@@ -1,0 +1,71 @@
+"""Result type of the safety filter."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import StrEnum
+
+import numpy as np
+
+__all__ = ["FilterResult", "FilterStatus"]
+
+
+class FilterStatus(StrEnum):
+    """What the filter did with the reference input."""
+
+    INACTIVE = "inactive"
+    """The reference satisfies every constraint and the input limits: passed unchanged."""
+    ACTIVE = "active"
+    """The output is the exact QP optimum; it differs from the reference because a barrier
+    constraint and/or an input bound is binding (see ``active`` / ``bounds_active``)."""
+    RELAXED = "relaxed"
+    """The barrier constraints and input limits cannot all hold: the output minimises the
+    weighted input change plus a heavy penalty on constraint violations (``slack > 0``).
+    (Also used, with a ``message`` saying so, in the rare case that OSQP could not solve the
+    exact QP to tolerance.)"""
+    EMERGENCY = "emergency"
+    """The body point is already inside an inflated circle (``||p_rel|| <= r``, barrier
+    undefined): brake and accelerate away from the obstacle centre(s)."""
+    FAILSAFE = "failsafe"
+    """The solver failed or the numbers overflowed: brake input (clipped to the limits)."""
+
+
+@dataclass(slots=True)
+class FilterResult:
+    """Output of :meth:`SafetyFilter.filter`.
+
+    Per-constraint arrays have one entry per obstacle, in the order of the
+    :class:`~.geometry.Obstacles` passed in. All arrays are finite.
+
+    Attributes:
+        u_safe: ``(m,)`` filtered input, always finite and within ``[u_min, u_max]``.
+        status: :class:`FilterStatus`.
+        h: ``(n,)`` barrier values ``h`` [m^2/s] at the current state (``sqrt`` clamped to 0
+            for obstacles the robot is inside).
+        constraint: ``(n,)`` ``Lf h + Lg h u_safe + gamma h``; ``>= 0`` means satisfied.
+        slack: ``(n,)`` constraint violation ``max(0, -constraint)`` (0 unless RELAXED,
+            EMERGENCY or FAILSAFE).
+        active: ``(n,)`` bool, constraints binding at ``u_safe`` (for EMERGENCY: the
+            obstacles the robot is inside).
+        bounds_active: ``(m,)`` bool, inputs at ``u_min`` or ``u_max`` after filtering.
+        solver: ``'closed_form'``, ``'osqp'`` or ``'none'``.
+        solve_time: Wall-clock time of the whole ``filter`` call [s].
+        message: Human-readable detail (empty when nothing noteworthy happened).
+
+    """
+
+    u_safe: np.ndarray
+    status: FilterStatus
+    h: np.ndarray
+    constraint: np.ndarray
+    slack: np.ndarray
+    active: np.ndarray
+    bounds_active: np.ndarray
+    solver: str
+    solve_time: float
+    message: str = ""
+
+    @property
+    def modified(self) -> bool:
+        """True if ``u_safe`` differs from the reference (any status but INACTIVE)."""
+        return self.status is not FilterStatus.INACTIVE
