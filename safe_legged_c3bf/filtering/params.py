@@ -1,0 +1,123 @@
+"""Parameters of the safety filter node, with units, defaults and validation.
+
+Every value is SI (m, s, rad). ``validate`` names the first bad parameter, so the node can
+reject a bad ``ros2 param set`` with the reason.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields, replace
+from typing import Any
+
+MODELS = ("unicycle", "holonomic")
+
+
+@dataclass(frozen=True)
+class FilterParams:
+    """Safety filter parameters (SI units; frames: odom for obstacles, base_link for commands).
+
+    Attributes:
+        enabled: False = pass-through (baseline runs), flagged PASS_THROUGH.
+        model: 'unicycle' (the paper's, with body-point offset ``offset``) or 'holonomic'.
+        offset: body-point offset l ahead of the robot's centre (m), unicycle only.
+        gamma: class-K gain in Lf h + Lg h u + gamma h >= 0 (1/s); the paper uses 1.
+        robot_width: robot width w (m); vertical obstacles grow by w/2.
+        robot_height: robot body height (m); horizontal obstacles grow by robot_height/2.
+        safety_margin: extra inflation of every obstacle radius (m).
+        rate: filter cycles per second (Hz) of sim time.
+        k_v, k_w, k_z: reference tracking gains (1/s): u_ref = k (v_ref - v).
+        max_accel: |a| limit on forward/lateral acceleration (m/s^2).
+        max_yaw_accel: |alpha| limit (rad/s^2).
+        max_vertical_accel: |a_z| limit (m/s^2).
+        brake_decel: deceleration used when braking on stale input (m/s^2, rad/s^2 for yaw).
+        max_speed: |vx| limit (m/s); max_reverse_speed: limit on backward speed (m/s).
+        max_lateral_speed: |vy| limit (m/s, holonomic only).
+        max_yaw_rate: |wz| limit (rad/s).
+        max_vertical_speed: |vz| limit (m/s).
+        min_height, max_height: body height range the gait controller can hold (m): the
+            filter never asks to duck below min_height (it brakes or steers instead).
+        height_gain: gain (1/s) of the height-range barrier on a_z.
+        windup_band: largest lead of the command over the measured velocity (m/s, rad/s)
+            beyond which integration in the leading direction stops (anti-windup).
+        weights: QP weights on (a, alpha, a_z) or (a_x, a_y, a_z): a small weight makes the
+            filter prefer changing that input (e.g. steer or duck rather than brake).
+        odom_timeout, obstacles_timeout, reference_timeout: staleness limits (s, sim time).
+        horizontal_y_margin: a bar counts only while the robot's y is within its extent plus
+            half the robot width plus this margin (m).
+        tie_break: each vertical obstacle's circle is shifted this far (m) to the robot's
+            right and grown by as much, so that dead-ahead obstacles are passed on the left
+            instead of only braked for (see ``obstacle_input.to_c3bf_obstacles``).
+
+    """
+
+    enabled: bool = True
+    model: str = "unicycle"
+    offset: float = 0.25
+    gamma: float = 1.0
+    robot_width: float = 0.30
+    robot_height: float = 0.12
+    safety_margin: float = 0.05
+    rate: float = 50.0
+    k_v: float = 2.0
+    k_w: float = 3.0
+    k_z: float = 3.0
+    max_accel: float = 1.0
+    max_yaw_accel: float = 4.0
+    max_vertical_accel: float = 1.0
+    brake_decel: float = 1.0
+    max_speed: float = 0.8
+    max_reverse_speed: float = 0.3
+    max_lateral_speed: float = 0.3
+    max_yaw_rate: float = 1.0
+    max_vertical_speed: float = 0.2
+    min_height: float = 0.20
+    max_height: float = 0.32
+    height_gain: float = 4.0
+    windup_band: float = 0.3
+    weights: tuple[float, float, float] = (1.0, 0.2, 0.5)
+    odom_timeout: float = 0.2
+    obstacles_timeout: float = 0.5
+    reference_timeout: float = 0.5
+    horizontal_y_margin: float = 0.1
+    tie_break: float = 0.03
+
+    def validate(self) -> FilterParams:
+        """Return self if valid, else raise ValueError naming the bad parameter."""
+        if self.model not in MODELS:
+            raise ValueError(f"model: must be one of {MODELS}, got {self.model!r}")
+        positive = (
+            "gamma", "robot_width", "robot_height", "rate", "k_v", "k_w", "k_z", "max_accel",
+            "max_yaw_accel", "max_vertical_accel", "brake_decel", "max_speed",
+            "max_lateral_speed", "max_yaw_rate", "max_vertical_speed", "height_gain",
+            "windup_band", "odom_timeout", "obstacles_timeout", "reference_timeout",
+        )
+        non_negative = (
+            "offset", "safety_margin", "max_reverse_speed", "horizontal_y_margin", "tie_break",
+        )
+        for name in positive:
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name}: must be a finite number > 0, got {value!r}")
+        for name in non_negative:
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name}: must be a finite number >= 0, got {value!r}")
+        if not (0 < self.min_height < self.max_height):
+            raise ValueError(
+                f"min_height/max_height: need 0 < min_height < max_height, got "
+                f"{self.min_height!r}, {self.max_height!r}"
+            )
+        if len(self.weights) != 3 or not all(math.isfinite(w) and w > 0 for w in self.weights):
+            raise ValueError(f"weights: must be three finite numbers > 0, got {self.weights!r}")
+        return self
+
+    def updated(self, **changes: Any) -> FilterParams:
+        """A validated copy with ``changes`` applied (raise ValueError on a bad value)."""
+        known = {f.name for f in fields(self)}
+        for name in changes:
+            if name not in known:
+                raise ValueError(f"{name}: unknown safety filter parameter")
+        if "weights" in changes:
+            changes["weights"] = tuple(float(w) for w in changes["weights"])
+        return replace(self, **changes).validate()

@@ -1,0 +1,309 @@
+"""One cycle of the C3BF safety filter node, without ROS: reference -> safe velocity command.
+
+Per cycle (sim time ``t``):
+
+1. Fail-safe checks: odometry older than ``odom_timeout`` or obstacles older than
+   ``obstacles_timeout`` (or never received) -> brake every velocity to zero at
+   ``brake_decel`` (STALE_INPUT). A reference older than ``reference_timeout`` -> the
+   reference becomes zero (flagged, still filtered).
+2. Reference to acceleration: u_ref = k (v_ref - v), saturated (the paper's P tracking), where
+   v is the commanded velocity held by this cycle's integrator (the model's velocity state).
+3. The C3BF QP (``safe_legged_c3bf.c3bf.SafetyFilter``) over (a, alpha, a_z) for the unicycle
+   model with body-point offset (the paper's) or (a_x, a_y, a_z) for the holonomic model,
+   with vertical and horizontal obstacles together. Per-cycle input bounds add the velocity
+   limits, a height-range barrier (never duck below ``min_height``: brake or steer instead)
+   and anti-windup (no further integration in a direction where the command already leads
+   the measured velocity by more than ``windup_band``).
+4. Integrate the safe acceleration into the published velocity command.
+
+Frames: odom for positions and obstacles; the command is in base_link (REP-103). In the
+unicycle model the command's linear.y is always 0: that model cannot vouch for side-steps.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from safe_legged_c3bf.base_state import BaseState
+from safe_legged_c3bf.c3bf import (
+    FilterResult,
+    FilterStatus,
+    HolonomicHeightModel,
+    InvalidInputError,
+    SafetyFilter,
+    UnicycleHeightModel,
+)
+from safe_legged_c3bf.filtering.obstacle_input import ObstacleInput, to_c3bf_obstacles
+from safe_legged_c3bf.filtering.params import FilterParams
+from safe_legged_c3bf.gait_controller import VelocityCommand
+
+
+class CycleStatus(enum.IntEnum):
+    """Status of a cycle; values equal the SafetyFilterState message constants."""
+
+    PASS_THROUGH = 0
+    INACTIVE = 1
+    ACTIVE = 2
+    RELAXED = 3
+    EMERGENCY_BRAKE = 4
+    STALE_INPUT = 5
+    INVALID_INPUT = 6
+
+
+_FROM_FILTER = {
+    FilterStatus.INACTIVE: CycleStatus.INACTIVE,
+    FilterStatus.ACTIVE: CycleStatus.ACTIVE,
+    FilterStatus.RELAXED: CycleStatus.RELAXED,
+    FilterStatus.EMERGENCY: CycleStatus.EMERGENCY_BRAKE,
+    FilterStatus.FAILSAFE: CycleStatus.EMERGENCY_BRAKE,  # solver failure: brake input
+}
+
+
+@dataclass
+class CycleOutput:
+    """What one cycle produced.
+
+    Attributes:
+        command: the safe velocity command (base_link).
+        status: what happened (see :class:`CycleStatus`).
+        text: a human-readable reason.
+        reference: the reference used (zero when stale).
+        reference_stale: the reference was older than its timeout.
+        u_reference, u_safe: the model inputs before and after filtering.
+        result: the QP result (None when the QP did not run).
+        obstacle_ids: ids of the constraints, in ``result`` order.
+
+    """
+
+    command: VelocityCommand
+    status: CycleStatus
+    text: str
+    reference: VelocityCommand
+    reference_stale: bool
+    u_reference: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    u_safe: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    result: FilterResult | None = None
+    obstacle_ids: list[str] = field(default_factory=list)
+
+
+def _sat(x: float, limit: float) -> float:
+    return max(-limit, min(limit, x))
+
+
+def _toward_zero(x: float, step: float) -> float:
+    return 0.0 if abs(x) <= step else x - math.copysign(step, x)
+
+
+class SafetyFilterCycle:
+    """The safety filter's per-cycle logic, holding the commanded-velocity integrator."""
+
+    def __init__(self, params: FilterParams | None = None) -> None:
+        """Create the cycle with validated ``params`` (defaults if None)."""
+        self.params = (params or FilterParams()).validate()
+        self._build()
+        # Commanded velocity (base_link): vx, vy, vz, yaw rate.
+        self._v = np.zeros(4)
+        self._initialised = False
+        self._last_t: float | None = None
+
+    def _build(self) -> None:
+        p = self.params
+        if p.model == "unicycle":
+            model = UnicycleHeightModel(offset=p.offset)
+            limits = np.array([p.max_accel, p.max_yaw_accel, p.max_vertical_accel])
+        else:
+            model = HolonomicHeightModel()
+            limits = np.array([p.max_accel, p.max_accel, p.max_vertical_accel])
+        self._limits = limits
+        self.filter = SafetyFilter(
+            model, gamma=p.gamma, weights=np.array(p.weights), u_min=-limits, u_max=limits
+        )
+
+    def set_params(self, params: FilterParams) -> None:
+        """Replace the parameters (validated) and rebuild the QP."""
+        self.params = params.validate()
+        self._build()
+
+    @property
+    def commanded(self) -> VelocityCommand:
+        """The current commanded velocity."""
+        vx, vy, vz, wz = self._v
+        return VelocityCommand(vx, vy, vz, wz)
+
+    # ------------------------------------------------------------------ helpers
+    def _clip_velocity(self, v: np.ndarray) -> np.ndarray:
+        p = self.params
+        vy_max = p.max_lateral_speed if p.model == "holonomic" else 0.0
+        return np.array(
+            [
+                min(max(v[0], -p.max_reverse_speed), p.max_speed),
+                _sat(v[1], vy_max),
+                _sat(v[2], p.max_vertical_speed),
+                _sat(v[3], p.max_yaw_rate),
+            ]
+        )
+
+    def _brake(self, dt: float) -> None:
+        p = self.params
+        step = p.brake_decel * dt
+        self._v = np.array([_toward_zero(x, step) for x in self._v])
+
+    @staticmethod
+    def _measured(base: BaseState) -> np.ndarray:
+        """Measured (vx, vy, vz, yaw rate): body-frame planar, odom vertical."""
+        v_world = base.linear_velocity_world
+        return np.array(
+            [base.linear_velocity[0], base.linear_velocity[1], v_world[2], base.angular_velocity[2]]
+        )
+
+    # ------------------------------------------------------------------ the cycle
+    def step(
+        self,
+        t: float,
+        reference: VelocityCommand | None,
+        reference_time: float | None,
+        base: BaseState | None,
+        obstacles: list[ObstacleInput] | None,
+        obstacles_time: float | None,
+    ) -> CycleOutput:
+        """Run one cycle at sim time ``t`` (s) and return the command to publish.
+
+        Args:
+            t: current sim time (s).
+            reference: latest reference command (None if never received).
+            reference_time: sim time the reference was received (s).
+            base: latest odometry (None if never received); ``base.stamp`` is its time.
+            obstacles: latest obstacle list (None if never received).
+            obstacles_time: stamp of the obstacle list (s).
+
+        """
+        p = self.params
+        dt = 1.0 / p.rate if self._last_t is None else min(max(t - self._last_t, 0.0), 2.0 / p.rate)
+        self._last_t = t
+        ref_stale = (
+            reference is None or reference_time is None or t - reference_time > p.reference_timeout
+        )
+        ref = VelocityCommand() if ref_stale else reference
+        ref_arr = ref.as_array()  # vx, vy, vz, wz
+
+        if not p.enabled:
+            self._v = ref_arr.copy()
+            self._initialised = False
+            text = "filter disabled: reference passed through"
+            if ref_stale:
+                text += " (reference stale: zero)"
+            return CycleOutput(ref, CycleStatus.PASS_THROUGH, text, ref, ref_stale)
+
+        odom_stale = base is None or t - base.stamp > p.odom_timeout
+        obstacles_stale = (
+            obstacles is None or obstacles_time is None or t - obstacles_time > p.obstacles_timeout
+        )
+        if odom_stale or obstacles_stale:
+            self._brake(dt)
+            what = " and ".join(
+                n for n, s in (("odometry", odom_stale), ("obstacles", obstacles_stale)) if s
+            )
+            return CycleOutput(
+                self.commanded, CycleStatus.STALE_INPUT, f"{what} stale: braking to zero",
+                ref, ref_stale,
+            )
+
+        measured = self._measured(base)
+        if not self._initialised:
+            self._v = self._clip_velocity(measured)
+            self._initialised = True
+
+        yaw = base.yaw
+        pos = base.position
+        v = self._v
+        # Predict obstacles to now from their stamp.
+        circles, ids = to_c3bf_obstacles(
+            obstacles, t - obstacles_time, float(pos[1]), p.robot_width, p.robot_height,
+            p.safety_margin, p.horizontal_y_margin, yaw, p.tie_break,
+        )
+        if p.model == "unicycle":
+            state = np.array([pos[0], pos[1], yaw, v[0], v[3], pos[2], v[2]])
+            u_ref = np.array(
+                [
+                    _sat(p.k_v * (ref_arr[0] - v[0]), p.max_accel),
+                    _sat(p.k_w * (ref_arr[3] - v[3]), p.max_yaw_accel),
+                    _sat(p.k_z * (ref_arr[2] - v[2]), p.max_vertical_accel),
+                ]
+            )
+            # integrated velocity index for each input: vx, wz, vz
+            idx = (0, 3, 2)
+        else:
+            c, s = math.cos(yaw), math.sin(yaw)
+            state = np.array(
+                [pos[0], pos[1], c * v[0] - s * v[1], s * v[0] + c * v[1], pos[2], v[2]]
+            )
+            u_ref = np.array(
+                [
+                    _sat(p.k_v * (ref_arr[0] - v[0]), p.max_accel),
+                    _sat(p.k_v * (ref_arr[1] - v[1]), p.max_accel),
+                    _sat(p.k_z * (ref_arr[2] - v[2]), p.max_vertical_accel),
+                ]
+            )
+            idx = (0, 1, 2)
+
+        u_min, u_max = self._bounds(v, measured, float(pos[2]), dt, idx)
+        u_ref_clipped = np.clip(u_ref, u_min, u_max)
+        try:
+            result = self.filter.filter(
+                state, u_ref_clipped, circles, yaw=yaw, u_min=u_min, u_max=u_max
+            )
+        except InvalidInputError as err:
+            self._brake(dt)
+            return CycleOutput(
+                self.commanded, CycleStatus.INVALID_INPUT, f"rejected input: {err}", ref,
+                ref_stale, u_ref,
+            )
+        u = result.u_safe
+        new_v = v.copy()
+        for k, j in enumerate(idx):
+            new_v[j] = v[j] + u[k] * dt
+        if p.model == "unicycle":
+            new_v[1] = 0.0
+        else:
+            new_v[3] = ref_arr[3]  # yaw does not move the holonomic body point
+        self._v = self._clip_velocity(new_v)
+        status = _FROM_FILTER[result.status]
+        text = result.message or status.name.lower()
+        if ref_stale:
+            text += " (reference stale: zero)"
+        return CycleOutput(
+            self.commanded, status, text, ref, ref_stale, u_ref, u.copy(), result, ids
+        )
+
+    def _bounds(
+        self, v: np.ndarray, measured: np.ndarray, z: float, dt: float, idx: tuple[int, ...]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Per-cycle input bounds: limits, velocity limits, height range and anti-windup."""
+        p = self.params
+        lo, hi = -self._limits.copy(), self._limits.copy()
+        vy_max = p.max_lateral_speed if p.model == "holonomic" else 0.0
+        v_lo = np.array([-p.max_reverse_speed, -vy_max, -p.max_vertical_speed, -p.max_yaw_rate])
+        v_hi = np.array([p.max_speed, vy_max, p.max_vertical_speed, p.max_yaw_rate])
+        for k, j in enumerate(idx):
+            lo[k] = max(lo[k], (v_lo[j] - v[j]) / dt)
+            hi[k] = min(hi[k], (v_hi[j] - v[j]) / dt)
+            lead = v[j] - measured[j]
+            if lead > p.windup_band:
+                hi[k] = min(hi[k], 0.0)
+            elif lead < -p.windup_band:
+                lo[k] = max(lo[k], 0.0)
+        # Height-range barrier (second order, exponential): min_height <= z <= max_height.
+        k_h, vz = p.height_gain, v[2]
+        kz = idx.index(2)
+        lo[kz] = max(lo[kz], -2.0 * k_h * vz - k_h * k_h * (z - p.min_height))
+        hi[kz] = min(hi[kz], -2.0 * k_h * vz + k_h * k_h * (p.max_height - z))
+        bad = lo > hi
+        if bad.any():  # conflicting limits: take the middle (limits are soft here)
+            mid = 0.5 * (lo + hi)
+            lo = np.where(bad, mid, lo)
+            hi = np.where(bad, mid, hi)
+        return lo, hi

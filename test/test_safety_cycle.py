@@ -1,0 +1,246 @@
+"""The safety filter's per-cycle logic in closed loop with a lagging robot (no ROS)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from filter_harness import ScriptedObstacle, SimpleRobot, clearance
+
+from safe_legged_c3bf.filtering.params import FilterParams
+from safe_legged_c3bf.filtering.safety_cycle import CycleStatus, SafetyFilterCycle
+from safe_legged_c3bf.gait_controller import VelocityCommand
+
+RATE = 50.0
+DT = 1.0 / RATE
+Z_NOMINAL = 0.28
+
+
+def run(cycle, robot, obstacles, reference, duration, hold_height=True):
+    """Closed loop; returns per-cycle (t, output, min clearance over obstacles, z)."""
+    log = []
+    for k in range(int(duration * RATE)):
+        t = k * DT
+        ref = reference(t, robot) if callable(reference) else reference
+        if hold_height:
+            ref = VelocityCommand(ref.vx, ref.vy, 2.0 * (Z_NOMINAL - robot.z), ref.yaw_rate)
+        out = cycle.step(
+            t, ref, t, robot.base_state(t), [o.at(t) for o in obstacles], t
+        )
+        gaps = [clearance(robot, o, t, cycle.params.offset) for o in obstacles]
+        log.append((t, out, min(gaps) if gaps else math.inf, robot.z))
+        for _ in range(10):  # robot integrates at 10x the filter rate
+            robot.step(out.command, DT / 10)
+    return log
+
+
+def min_gap(log):
+    return min(g for _, _, g, _ in log)
+
+
+def half_width(params):
+    return 0.5 * params.robot_width
+
+
+@pytest.mark.parametrize(
+    "obstacle",
+    [
+        ScriptedObstacle("static", np.array([3.0, 0.05, 0.5])),
+        ScriptedObstacle("head_on", np.array([6.0, 0.0, 0.5]), np.array([-0.4, 0.0, 0.0])),
+        ScriptedObstacle("crossing", np.array([3.0, -2.5, 0.5]), np.array([0.0, 0.45, 0.0])),
+    ],
+    ids=lambda o: o.id,
+)
+def test_vertical_obstacle_avoided_with_filter_and_hit_without(obstacle):
+    params = FilterParams()
+    ref = VelocityCommand(0.5, 0.0, 0.0, 0.0)
+    log = run(SafetyFilterCycle(params), SimpleRobot(), [obstacle], ref, 16.0)
+    statuses = {out.status for _, out, *_ in log}
+    assert CycleStatus.ACTIVE in statuses
+    assert CycleStatus.EMERGENCY_BRAKE not in statuses
+    assert min_gap(log) > half_width(params), "body point entered the robot-inflated obstacle"
+    # A mover may start the run inside the cone (h0 < 0): the CBF condition then guarantees
+    # h(t) >= h0 exp(-gamma t); otherwise h stays >= 0 (tolerance: discretisation, robot lag).
+    hs = [(t, float(out.result.h.min())) for t, out, *_ in log if out.result.h.size]
+    h0 = min(hs[0][1], 0.0)
+    assert all(h >= h0 * math.exp(-params.gamma * t) - 1e-3 for t, h in hs)
+
+    baseline = SafetyFilterCycle(params.updated(enabled=False))
+    off = run(baseline, SimpleRobot(), [obstacle], ref, 16.0)
+    assert {out.status for _, out, *_ in off} == {CycleStatus.PASS_THROUGH}
+    assert min_gap(off) < half_width(params), "scenario is not a collision course without filter"
+
+
+def test_ten_obstacles_never_entered():
+    rng = np.random.default_rng(3)
+    obstacles = [
+        ScriptedObstacle(
+            f"o{i}",
+            np.array([rng.uniform(2, 10), rng.uniform(-1.5, 1.5), 0.5]),
+            np.array([rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3), 0.0]),
+            (rng.uniform(0.1, 0.3),) * 2,
+        )
+        for i in range(10)
+    ]
+    params = FilterParams()
+    log = run(SafetyFilterCycle(params), SimpleRobot(), obstacles, VelocityCommand(0.5), 20.0)
+    assert min_gap(log) > half_width(params)
+
+
+def test_bar_ahead_ducks_and_rises_again():
+    bar = ScriptedObstacle("bar", np.array([2.5, 0.0, 0.42]), semi_axes=(0.05, 0.05), plane=1,
+                           extent=3.0)
+    params = FilterParams()
+    robot = SimpleRobot()
+    log = run(SafetyFilterCycle(params), robot, [bar], VelocityCommand(0.4), 16.0)
+    vz = np.array([out.command.vz for _, out, *_ in log])
+    assert vz.min() < -0.02, "the filter never asked to duck"
+    gap_needed = 0.5 * params.robot_height
+    assert min_gap(log) > gap_needed
+    assert robot.x > 3.5, "the robot did not pass under the bar"
+    assert abs(robot.z - Z_NOMINAL) < 0.01, "the robot did not regain its height"
+
+
+def test_bar_too_low_to_duck_under_brakes_instead():
+    bar = ScriptedObstacle("low", np.array([2.5, 0.0, 0.30]), semi_axes=(0.05, 0.05), plane=1,
+                           extent=3.0)
+    params = FilterParams()
+    robot = SimpleRobot()
+    log = run(SafetyFilterCycle(params), robot, [bar], VelocityCommand(0.4), 16.0)
+    assert min_gap(log) > 0.5 * params.robot_height
+    assert min(z for *_, z in log) > params.min_height - 0.02
+    assert robot.x < 2.5
+
+
+def test_bar_beside_the_robot_is_ignored():
+    bar = ScriptedObstacle("aside", np.array([2.5, 3.0, 0.35]), semi_axes=(0.05, 0.05), plane=1,
+                           extent=1.0)
+    log = run(SafetyFilterCycle(), SimpleRobot(), [bar], VelocityCommand(0.4), 3.0)
+    assert all(out.obstacle_ids == [] for _, out, *_ in log)
+
+
+def test_stale_odometry_and_obstacles_brake_to_zero_at_the_limit():
+    params = FilterParams()
+    cycle = SafetyFilterCycle(params)
+    robot = SimpleRobot()
+    ref = VelocityCommand(0.5)
+    for k in range(150):  # reach speed
+        t = k * DT
+        out = cycle.step(t, ref, t, robot.base_state(t), [], t)
+        robot.step(out.command, DT)
+    v0 = out.command.vx
+    assert v0 > 0.4
+    t0 = 150 * DT
+    for what in ("odom", "obstacles"):
+        c = SafetyFilterCycle(params)
+        c.step(t0 - DT, ref, t0 - DT, robot.base_state(t0 - DT), [], t0 - DT)
+        c._v[0] = v0  # same speed as above
+        speeds = []
+        for k in range(60):
+            t = t0 + k * DT
+            base = robot.base_state(t0 - 1.0 if what == "odom" else t)
+            obs_time = t0 - 1.0 if what == "obstacles" else t
+            out = c.step(t, ref, t, base, [], obs_time)
+            assert out.status is CycleStatus.STALE_INPUT, what
+            assert what in out.text or (what == "odom" and "odometry" in out.text)
+            speeds.append(out.command.vx)
+        decel = -np.diff(speeds) / DT
+        assert decel.max() <= params.brake_decel + 1e-9
+        assert speeds[-1] == 0.0
+
+
+def test_never_received_inputs_are_stale():
+    out = SafetyFilterCycle().step(0.0, VelocityCommand(0.5), 0.0, None, None, None)
+    assert out.status is CycleStatus.STALE_INPUT
+    assert out.command.is_zero()
+
+
+def test_stale_reference_becomes_zero():
+    cycle = SafetyFilterCycle()
+    robot = SimpleRobot(vx=0.5)
+    cycle.step(0.0, VelocityCommand(0.5), 0.0, robot.base_state(0.0), [], 0.0)
+    for k in range(1, 200):
+        t = k * DT
+        out = cycle.step(t, VelocityCommand(0.5), 0.0, robot.base_state(t), [], t)
+        robot.step(out.command, DT)
+    assert out.reference_stale and out.reference.is_zero()
+    assert "reference stale" in out.text
+    assert abs(out.command.vx) < 1e-3
+
+
+def test_inside_an_obstacle_brakes_and_gets_out():
+    params = FilterParams()
+    cycle = SafetyFilterCycle(params)
+    robot = SimpleRobot(vx=0.3)
+    inside = ScriptedObstacle("here", np.array([0.35, 0.0, 0.5]), semi_axes=(0.2, 0.2))
+    radius = 0.2 + 0.5 * params.robot_width
+    emergency_speeds = []
+    for k in range(200):
+        t = k * DT
+        out = cycle.step(t, VelocityCommand(0.5), t, robot.base_state(t), [inside.at(t)], t)
+        if out.status is CycleStatus.EMERGENCY_BRAKE:
+            emergency_speeds.append(out.command.vx)
+        elif emergency_speeds:
+            break
+        robot.step(out.command, DT)
+    assert emergency_speeds, "never flagged EMERGENCY_BRAKE"
+    assert emergency_speeds[-1] < 0.3, "did not brake"
+    assert out.status is not CycleStatus.EMERGENCY_BRAKE, "never got out"
+    assert clearance(robot, inside, t, params.offset) > radius - 0.2 - 1e-6
+
+
+def test_infeasible_constraints_give_a_flagged_relaxed_solution():
+    params = FilterParams(max_accel=0.05, max_yaw_accel=0.05, max_vertical_accel=0.05,
+                          windup_band=10.0)
+    cycle = SafetyFilterCycle(params)
+    robot = SimpleRobot(vx=0.8)
+    wall = ScriptedObstacle("wall", np.array([1.2, 0.0, 0.5]), semi_axes=(0.3, 0.3))
+    cycle.step(0.0, VelocityCommand(0.8), 0.0, robot.base_state(0.0), [wall.at(0.0)], 0.0)
+    out = cycle.step(DT, VelocityCommand(0.8), DT, robot.base_state(DT), [wall.at(DT)], DT)
+    assert out.status is CycleStatus.RELAXED
+    assert out.result.slack.max() > 0
+    assert np.all(np.isfinite(out.u_safe))
+
+
+def test_pass_through_forwards_the_reference_exactly():
+    cycle = SafetyFilterCycle(FilterParams(enabled=False))
+    ref = VelocityCommand(0.7, 0.1, -0.05, 0.3)
+    out = cycle.step(1.0, ref, 1.0, None, None, None)
+    assert out.status is CycleStatus.PASS_THROUGH
+    assert out.command == ref
+
+
+def test_unicycle_model_never_passes_on_a_side_step():
+    cycle = SafetyFilterCycle()
+    robot = SimpleRobot()
+    for k in range(20):
+        t = k * DT
+        out = cycle.step(t, VelocityCommand(0.3, 0.2, 0.0, 0.0), t, robot.base_state(t), [], t)
+    assert out.command.vy == 0.0
+
+
+def test_holonomic_model_side_steps_around_an_obstacle():
+    params = FilterParams(model="holonomic", offset=0.0)
+    obstacle = ScriptedObstacle("static", np.array([3.0, 0.05, 0.5]))
+    log = run(SafetyFilterCycle(params), SimpleRobot(holonomic=True), [obstacle],
+              VelocityCommand(0.5), 16.0)
+    assert min_gap(log) > half_width(params)
+    assert any(abs(out.command.vy) > 0.02 for _, out, *_ in log)
+
+
+@pytest.mark.parametrize(
+    "change, fragment",
+    [
+        ({"gamma": -1.0}, "gamma"),
+        ({"rate": 0.0}, "rate"),
+        ({"model": "tank"}, "model"),
+        ({"min_height": 0.5}, "min_height"),
+        ({"weights": (1.0, 0.0, 1.0)}, "weights"),
+        ({"robot_width": float("nan")}, "robot_width"),
+        ({"no_such": 1.0}, "no_such"),
+    ],
+)
+def test_invalid_parameters_are_rejected_with_the_reason(change, fragment):
+    with pytest.raises(ValueError, match=fragment):
+        FilterParams().updated(**change)
