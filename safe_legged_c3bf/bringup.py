@@ -1,0 +1,901 @@
+"""Start, watch and keep a run of the whole node graph: ``python -m safe_legged_c3bf.bringup``.
+
+Runs the simulator bridge, obstacle tracker, reference planner, C3BF safety filter and gait
+controller on a scenario (default ``quadruped_default``, headless), each node in its own process
+(or all on one executor with ``--in-process``), on a private ROS domain restricted to this host
+unless ``--domain-id`` is given. While it runs a progress line shows sim time, real-time factor,
+distance to the goal and the filter status. At the end it prints a summary and writes a run
+folder (``--out``, default ``runs/<scenario>-<timestamp>/``) with ``report.json``, plots, the
+node logs and, on request, an MCAP recording (``--record``) and a video (``--video``).
+
+Exit codes: 0 the run completed (also when the robot collided or fell: the report says so);
+1 a node died or the simulation stalled; 2 start-up failed (bad arguments, unknown scenario,
+missing node module, no simulation time within ``--startup-timeout``); 130 / 143 stopped by
+SIGINT (Ctrl-C) / SIGTERM. See doc/bringup.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import importlib
+import inspect
+import math
+import os
+import signal
+import sys
+import time
+import traceback
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from safe_legged_c3bf.run.report import RunContext, format_summary, write_run_folder
+from safe_legged_c3bf.run.supervisor import (
+    ManagedProcess,
+    NodeSpec,
+    Supervisor,
+    describe_returncode,
+)
+
+DEFAULT_SCENARIO = "quadruped_default"
+NODE_PACKAGE = "safe_legged_c3bf.nodes"
+#: Graph nodes in start order: (name, module). The gait controller's robot comes from the
+#: scenario; the simulator is started first so that it is up when the others subscribe.
+GRAPH_NODES = (
+    ("simulator", f"{NODE_PACKAGE}.simulator_node"),
+    ("obstacle_tracker", f"{NODE_PACKAGE}.obstacle_tracker_node"),
+    ("reference_planner", f"{NODE_PACKAGE}.reference_planner_node"),
+    ("safety_filter", f"{NODE_PACKAGE}.safety_filter_node"),
+    ("gait_controller", f"{NODE_PACKAGE}.gait_controller_node"),
+)
+RECORDER_MODULE = "safe_legged_c3bf.run.recorder"
+#: Started once the other nodes are in the graph: its first command starts physics.
+LAST_NODE = "gait_controller"
+#: Scenario override sections -> node names.
+OVERRIDE_TARGETS = {
+    "filter": "safety_filter", "tracker": "obstacle_tracker", "controller": "gait_controller",
+}
+EXIT_OK, EXIT_FAILED, EXIT_STARTUP = 0, 1, 2
+EXIT_SIGNAL = {signal.SIGINT: 130, signal.SIGTERM: 143, signal.SIGHUP: 129}
+PROGRESS_PERIOD_TTY = 0.25
+PROGRESS_PERIOD_LOG = 5.0
+HOUSEKEEPING_PERIOD = 0.1
+
+
+class StartupError(RuntimeError):
+    """The run could not be started (message is for the user)."""
+
+
+# ------------------------------------------------------------------------------ arguments
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The bringup's command line."""
+    p = argparse.ArgumentParser(
+        prog="python -m safe_legged_c3bf.bringup",
+        description="Run the safe_legged_c3bf node graph on a scenario and report on it.",
+        epilog="Exit codes: 0 run completed (even with a collision: see the report), 1 a node "
+        "died, 2 start-up failed, 130/143 interrupted by SIGINT/SIGTERM.",
+    )
+    p.add_argument("--scenario", default=DEFAULT_SCENARIO, metavar="NAME|PATH",
+                   help=f"scenario name in config/scenarios or a YAML path "
+                   f"(default {DEFAULT_SCENARIO})")
+    p.add_argument("--list-scenarios", action="store_true", help="list scenario names and exit")
+    p.add_argument("--gui", action="store_true", help="open the PyBullet GUI (needs a display)")
+    p.add_argument("--no-filter", action="store_true",
+                   help="run the safety filter disabled (pass-through), for comparison")
+    p.add_argument("--in-process", action="store_true",
+                   help="compose all nodes on one executor in this process")
+    p.add_argument("--record", metavar="FILE.mcap", type=Path,
+                   help="record every contract topic to an MCAP file (Foxglove, ros2 bag)")
+    p.add_argument("--video", metavar="FILE.gif|.mp4", type=Path,
+                   help="write the simulator's follow-camera video (headless)")
+    p.add_argument("--video-fps", type=float, default=10.0, metavar="FPS",
+                   help="video frames per simulated second (default 10)")
+    p.add_argument("--lockstep", action="store_true",
+                   help="simulator waits for the gait controller's command of every state "
+                   "(no falls from a starved controller; deterministic physics)")
+    p.add_argument("--real-time-factor", type=float, metavar="X",
+                   help="simulator pacing: sim seconds per wall second (0 = as fast as "
+                   "possible; default the simulator's, 1)")
+    p.add_argument("--duration", type=float, metavar="S",
+                   help="override the scenario duration (s, sim time)")
+    p.add_argument("--seed", type=int, metavar="N", help="override the scenario seed")
+    p.add_argument("--domain-id", type=int, metavar="N",
+                   help="use this ROS_DOMAIN_ID as is (default: lease a private one, "
+                   "localhost only)")
+    p.add_argument("--out", type=Path, metavar="DIR",
+                   help="run folder (default runs/<scenario>-<timestamp>/)")
+    p.add_argument("--remap", action="append", default=[], metavar="FROM:=TO",
+                   help="topic remapping applied to every node (repeatable)")
+    p.add_argument("--node", action="append", default=[], metavar="NAME=MODULE",
+                   help="run MODULE instead of the standard module for node NAME (repeatable)")
+    p.add_argument("--executor", choices=("single", "multi"), default="single",
+                   help="executor for --in-process (default single)")
+    p.add_argument("--startup-timeout", type=float, default=60.0, metavar="S",
+                   help="wall seconds to wait for simulation time to start (default 60)")
+    p.add_argument("--stall-timeout", type=float, default=30.0, metavar="S",
+                   help="wall seconds without simulation progress before giving up "
+                   "(default 30)")
+    p.add_argument("--progress-period", type=float, metavar="S",
+                   help="seconds between progress lines (default 0.25 on a terminal, where "
+                   "the line is rewritten in place, else 5)")
+    p.add_argument("--verbose", "-v", action="store_true",
+                   help="also print the nodes' log lines (they always go to <out>/logs/)")
+    return p
+
+
+# ------------------------------------------------------------------------------ the plan
+
+
+@dataclass
+class RunPlan:
+    """Everything decided before anything starts."""
+
+    scenario: Any  # safe_legged_c3bf.sim.scenario.Scenario
+    scenario_file: Path
+    run_dir: Path
+    specs: list[NodeSpec]
+    recorder: NodeSpec | None
+    context: RunContext
+    remaps: list[str] = field(default_factory=list)
+
+
+def _default_run_dir(name: str) -> Path:
+    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+    run_dir = Path("runs") / f"{name}-{stamp}"
+    k = 1
+    while run_dir.exists():
+        k += 1
+        run_dir = Path("runs") / f"{name}-{stamp}-{k}"
+    return run_dir
+
+
+def _node_overrides(opts: argparse.Namespace) -> dict[str, str]:
+    out = {}
+    names = {n for n, _ in GRAPH_NODES}
+    for item in opts.node:
+        name, sep, module = item.partition("=")
+        if not sep or not module or name not in names:
+            raise StartupError(
+                f"--node {item!r}: expected NAME=MODULE with NAME one of {', '.join(sorted(names))}"
+            )
+        out[name] = module
+    return out
+
+
+def _config_file(node_name: str) -> list[Path]:
+    from safe_legged_c3bf.config import config_path
+
+    try:
+        path = config_path(f"{node_name}.yaml")
+    except FileNotFoundError:
+        return []
+    return [path] if path.is_file() else []
+
+
+@contextlib.contextmanager
+def _quiet_stderr():
+    """Silence C-level prints to fd 2 (pybullet prints its build time when imported)."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "wb") as devnull:
+            os.dup2(devnull.fileno(), 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
+def make_plan(opts: argparse.Namespace) -> RunPlan:
+    """Load the scenario, choose the run folder and the parameters of every node."""
+    with _quiet_stderr():
+        import pybullet  # noqa: F401 - imported once, quietly, for the scenario checks
+    from safe_legged_c3bf.sim.robots import robot_spec
+    from safe_legged_c3bf.sim.scenario import ScenarioError, load_scenario, resolve_scenario
+
+    try:
+        source = resolve_scenario(opts.scenario)
+        raw = yaml.safe_load(source.read_text(encoding="utf-8")) or {}
+        if not isinstance(raw, dict):
+            raise ScenarioError(f"{source}: expected a YAML mapping")
+        if opts.duration is not None:
+            if not opts.duration > 0:
+                raise StartupError("--duration must be positive")
+            raw["duration"] = float(opts.duration)
+        if opts.seed is not None:
+            raw["seed"] = int(opts.seed)
+        raw.setdefault("name", source.stem)
+        scenario = load_scenario(source)  # validates the original file with a clear message
+    except ScenarioError as err:
+        raise StartupError(str(err)) from None
+    except OSError as err:
+        raise StartupError(f"scenario {opts.scenario}: {err}") from None
+    if opts.video is not None and opts.video.suffix.lower() not in (".gif", ".mp4"):
+        raise StartupError(f"--video {opts.video}: the file must end in .gif or .mp4")
+    if opts.record is not None and opts.record.suffix.lower() != ".mcap":
+        raise StartupError(f"--record {opts.record}: the file must end in .mcap")
+
+    run_dir = (opts.out or _default_run_dir(scenario.name)).resolve()
+    run_dir.mkdir(parents=True, exist_ok=True)
+    scenario_file = run_dir / "scenario.yaml"
+    scenario_file.write_text(
+        "# Scenario as run (overrides from the bringup command line applied).\n"
+        + yaml.safe_dump(raw, sort_keys=False), encoding="utf-8",
+    )
+    try:
+        scenario = load_scenario(scenario_file)
+    except ScenarioError as err:
+        raise StartupError(str(err)) from None
+
+    modules = dict(GRAPH_NODES) | _node_overrides(opts)
+    params: dict[str, dict[str, Any]] = {name: {} for name, _ in GRAPH_NODES}
+    params["simulator"].update(
+        scenario=str(scenario_file), gui=bool(opts.gui),
+        summary_path=str(run_dir / "simulator_summary.json"),
+    )
+    if opts.lockstep:
+        params["simulator"]["lockstep"] = True
+    if opts.real_time_factor is not None:
+        if not opts.real_time_factor >= 0:
+            raise StartupError("--real-time-factor must be >= 0")
+        params["simulator"]["real_time_factor"] = float(opts.real_time_factor)
+    if not opts.in_process:
+        # The simulator process exits 0 when the scenario ends; in-process, the bringup polls
+        # SimulatorNode.finished instead (shutting the shared context down would stop all).
+        params["simulator"]["exit_on_finish"] = True
+    if opts.video is not None:
+        params["simulator"].update(
+            video_path=str(opts.video.resolve()), video_fps=float(opts.video_fps)
+        )
+    params["reference_planner"]["scenario"] = str(scenario_file)  # goal + planner section
+    params["safety_filter"]["enabled"] = not opts.no_filter
+    params["gait_controller"]["robot"] = scenario.robot.kind
+    for section, values in scenario.overrides.items():
+        target = OVERRIDE_TARGETS.get(section)
+        if target:
+            params[target].update(values)
+    if opts.no_filter:
+        params["safety_filter"]["enabled"] = False
+    specs = [
+        NodeSpec(name=name, module=modules[name], parameters=params[name],
+                 params_files=_config_file(name))
+        for name, _ in GRAPH_NODES
+    ]
+    recorder = None
+    if opts.record is not None:
+        recorder = NodeSpec(name="recorder", module=RECORDER_MODULE,
+                            args=[str(opts.record.resolve())])
+    width, height, margin = _filter_inflation(
+        robot_spec(scenario.robot.model), specs[[s.name for s in specs].index("safety_filter")]
+    )
+    ctx = RunContext(
+        scenario=scenario.name, robot=scenario.robot.kind,
+        goal=tuple(scenario.goal.position), goal_tolerance=scenario.goal.tolerance,
+        duration=scenario.duration, robot_width=width, robot_height=height,
+        safety_margin=margin, filter_enabled=bool(params["safety_filter"].get("enabled", True)),
+        mode="in-process" if opts.in_process else "processes",
+    )
+    for remap in opts.remap:
+        if ":=" not in remap:
+            raise StartupError(f"--remap {remap!r}: expected FROM:=TO")
+    return RunPlan(scenario, scenario_file, run_dir, specs, recorder, ctx, list(opts.remap))
+
+
+def _filter_inflation(spec, filter_spec: NodeSpec) -> tuple[float, float, float]:  # noqa: ANN001
+    """Robot width, height and safety margin the filter inflates obstacles with.
+
+    The filter's defaults, then config/safety_filter.yaml, then the scenario's overrides; the
+    simulator's robot description when the filter's parameters cannot be read.
+    """
+    values: dict[str, Any] = {"robot_width": spec.width, "robot_height": spec.height,
+                              "safety_margin": 0.0}
+    try:
+        from dataclasses import asdict
+
+        from safe_legged_c3bf.filtering.params import FilterParams
+
+        defaults = asdict(FilterParams())
+        values.update({k: defaults[k] for k in values if k in defaults})
+    except (ImportError, TypeError, ValueError):
+        pass
+    merged = _parameter_dict(filter_spec)
+    try:
+        return tuple(float(merged.get(k, values[k])) for k in values)  # type: ignore[return-value]
+    except (TypeError, ValueError):
+        return tuple(float(v) for v in values.values())  # type: ignore[return-value]
+
+
+# ------------------------------------------------------------------------------ output
+
+
+class Progress:
+    """The live progress line: rewritten in place on a TTY, one line every few s otherwise."""
+
+    def __init__(self, stream=None, period: float | None = None) -> None:  # noqa: ANN001
+        """Write to ``stream`` (default stdout) every ``period`` s (default by stream kind)."""
+        self.stream = stream or sys.stdout
+        self.tty = self.stream.isatty()
+        default = PROGRESS_PERIOD_TTY if self.tty else PROGRESS_PERIOD_LOG
+        self.period = default if period is None else max(float(period), 0.05)
+        self._last = -math.inf
+        self._width = 0
+
+    def update(self, text: str, force: bool = False) -> None:
+        """Show ``text`` if the period has passed (or ``force``)."""
+        now = time.monotonic()
+        if not force and now - self._last < self.period:
+            return
+        self._last = now
+        if self.tty:
+            pad = max(self._width - len(text), 0)
+            self.stream.write("\r" + text + " " * pad)
+            self._width = len(text)
+        else:
+            self.stream.write(text + "\n")
+        self.stream.flush()
+
+    def clear(self) -> None:
+        """End the rewritten line before other output."""
+        if self.tty and self._width:
+            self.stream.write("\r" + " " * self._width + "\r")
+            self.stream.flush()
+            self._width = 0
+
+
+def progress_text(monitor, duration: float) -> str:  # noqa: ANN001
+    """'t 12.3/40.0 s | RTF 0.97 | goal 3.21 m | filter ACTIVE'."""
+    t = monitor.sim_time
+    rtf = monitor.real_time_factor()
+    dist = monitor.distance_to_goal()
+    parts = [
+        "t   -.-" if t is None else f"t {t:5.1f}/{duration:.1f} s",
+        "RTF  -.--" if rtf is None else f"RTF {rtf:5.2f}",
+        "goal   -.-- m" if dist is None else f"goal {dist:5.2f} m",
+        f"filter {monitor.status_text}",
+    ]
+    safety = monitor.data.safety
+    if safety and safety[-1][2] > 0:
+        parts.append(f"COLLISIONS {int(safety[-1][2])}")
+    return " | ".join(parts)
+
+
+def _err(progress: Progress | None, text: str) -> None:
+    if progress is not None:
+        progress.clear()
+    print(f"bringup: {text}", file=sys.stderr, flush=True)
+
+
+# ------------------------------------------------------------------------------ signals
+
+
+class _StderrToFile:
+    """Send fd 2 (rcutils node logs) to a file; Python's sys.stderr keeps the terminal."""
+
+    def __init__(self, path: Path) -> None:
+        """Start redirecting to ``path``."""
+        path.parent.mkdir(parents=True, exist_ok=True)
+        sys.stderr.flush()
+        self._saved_fd = os.dup(2)
+        self._saved_stream = sys.stderr
+        sys.stderr = open(  # noqa: SIM115 - closed in restore()
+            os.dup(self._saved_fd), "w", buffering=1, encoding="utf-8", errors="replace"
+        )
+        with open(path, "ab") as log:
+            os.dup2(log.fileno(), 2)
+
+    def restore(self) -> None:
+        """Put fd 2 and sys.stderr back."""
+        if self._saved_fd < 0:
+            return
+        sys.stderr.flush()
+        os.dup2(self._saved_fd, 2)
+        os.close(self._saved_fd)
+        self._saved_fd = -1
+        sys.stderr.close()
+        sys.stderr = self._saved_stream
+
+
+class StopRequest:
+    """Records SIGINT / SIGTERM / SIGHUP instead of raising, so that stopping is orderly."""
+
+    def __init__(self) -> None:
+        """Install the handlers (main thread only)."""
+        self.signum: int | None = None
+        self._previous = {}
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+            self._previous[sig] = signal.signal(sig, self._handler)
+
+    def _handler(self, signum: int, frame) -> None:  # noqa: ANN001
+        if self.signum is None:
+            self.signum = signum
+
+    def __bool__(self) -> bool:
+        return self.signum is not None
+
+    def restore(self) -> None:
+        """Put the previous handlers back."""
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)
+
+
+# ------------------------------------------------------------------------------ running
+
+
+@dataclass
+class Outcome:
+    """How the run ended."""
+
+    kind: str = "completed"  # completed | node_died | startup_failed | interrupted | stalled
+    reason: str = ""
+    exit_code: int = EXIT_OK
+    failed_node: str | None = None
+    details: list[str] = field(default_factory=list)
+
+
+def _parameter_dict(spec: NodeSpec) -> dict[str, Any]:
+    """Merged parameters of a node: its config files first, then its overrides."""
+    merged: dict[str, Any] = {}
+    for path in spec.params_files:
+        data = yaml.safe_load(Path(path).read_text(encoding="utf-8")) or {}
+        for key, section in data.items():
+            if isinstance(section, dict) and key in (spec.name, f"/{spec.name}", "/**"):
+                merged.update(section.get("ros__parameters", {}) or {})
+    merged.update(spec.parameters)
+    return merged
+
+
+def find_node_class(module_name: str) -> type:
+    """The rclpy Node subclass defined in a node module."""
+    from rclpy.node import Node
+
+    module = importlib.import_module(module_name)
+    classes = [
+        obj for _, obj in inspect.getmembers(module, inspect.isclass)
+        if issubclass(obj, Node) and obj is not Node and obj.__module__ == module.__name__
+    ]
+    if len(classes) != 1:
+        raise StartupError(
+            f"{module_name}: expected exactly one rclpy Node subclass, found "
+            f"{[c.__name__ for c in classes] or 'none'}"
+        )
+    return classes[0]
+
+
+def _rclpy_parameters(values: dict[str, Any]) -> list:
+    from rclpy.parameter import Parameter
+
+    out = []
+    for name, value in values.items():
+        if isinstance(value, list | tuple):
+            if not value:
+                continue
+            value = [float(v) for v in value] if any(isinstance(v, float) for v in value) \
+                else list(value)
+        out.append(Parameter(name, value=value))
+    return out
+
+
+def _remap_args(remaps: list[str]) -> list[str]:
+    args: list[str] = []
+    for r in remaps:
+        args += ["-r", r]
+    return ["--ros-args", *args] if args else []
+
+
+class Bringup:
+    """One run: starts the nodes, watches them and the monitor, stops everything."""
+
+    def __init__(self, opts: argparse.Namespace, plan: RunPlan) -> None:
+        """Prepare a run of ``plan``."""
+        self.opts = opts
+        self.plan = plan
+        self.progress = Progress(period=opts.progress_period)
+        self.stop_request = StopRequest()
+        self.supervisor: Supervisor | None = None
+        self.processes: dict[str, ManagedProcess] = {}
+        self.in_process_nodes: list = []
+        self.monitor = None
+        self.executor = None
+        self.wall_start = time.monotonic()
+        self.outcome = Outcome()
+
+    # -- start ---------------------------------------------------------------------------------
+    def _check_modules(self) -> None:
+        specs = list(self.plan.specs) + ([self.plan.recorder] if self.plan.recorder else [])
+        missing = [f"{s.name} ({s.module})" for s in specs if not s.module_available()]
+        if missing:
+            raise StartupError(
+                "node module(s) not installed: " + ", ".join(missing)
+                + ". Reinstall the package (pip install -e .) or check --node."
+            )
+
+    def _start_processes(self, env: dict[str, str]) -> None:
+        self.supervisor = Supervisor(self.plan.run_dir / "logs", env)
+        remap = [arg for r in self.plan.remaps for arg in ("-r", r)]
+        first = [s for s in self.plan.specs if s.name != LAST_NODE]
+        last = [s for s in self.plan.specs if s.name == LAST_NODE]
+        if self.plan.recorder is not None:
+            first.insert(0, self.plan.recorder)  # record from the very first message
+        for batch in (first, last):
+            for spec in batch:
+                if self.stop_request:
+                    return
+                spec.ros_args = [*spec.ros_args, *remap]
+                echo = self._echo_line(spec.name) if self.opts.verbose else None
+                self.processes[spec.name] = self.supervisor.start(spec, echo=echo)
+            if batch is first and last:
+                self._wait_for_nodes(len(first))
+
+    def _wait_for_nodes(self, count: int, timeout: float = 30.0) -> None:
+        """Spin until ``count`` nodes besides the monitor are in the graph (or one died).
+
+        Physics starts with the gait controller's first command, so the gait controller is
+        started only once the other nodes are up: all of them see the run from t = 0.
+        """
+        deadline = time.monotonic() + min(timeout, self.opts.startup_timeout)
+        own = self.monitor.get_name()
+        while time.monotonic() < deadline and not self.stop_request:
+            names = {n for n in self.monitor.get_node_names() if n != own}
+            if len(names) >= count:
+                return
+            if any(p.poll() is not None for p in self.processes.values()):
+                return  # the watch loop reports it
+            self.progress.update(f"starting nodes: {len(names)} of {count} up")
+            self.executor.spin_once(timeout_sec=0.05)
+        if not self.stop_request:
+            _err(self.progress, f"only {len(names)} of {count} nodes visible after "
+                 f"{min(timeout, self.opts.startup_timeout):g} s; starting {LAST_NODE} anyway")
+
+    def _echo_line(self, name: str):  # noqa: ANN202
+        def echo(line: str) -> None:
+            self.progress.clear()
+            print(f"[{name}] {line}", file=sys.stderr, flush=True)
+
+        return echo
+
+    def _start_in_process(self) -> None:
+        from safe_legged_c3bf.run.recorder import RecorderNode
+
+        cli = _remap_args(self.plan.remaps)
+        if self.plan.recorder is not None:
+            node = RecorderNode(self.plan.recorder.args[0], cli_args=cli or None)
+            self.in_process_nodes.append(("recorder", node))
+            self.executor.add_node(node)
+        for spec in self.plan.specs:
+            if self.stop_request:
+                return
+            cls = find_node_class(spec.module)
+            try:
+                node = cls(
+                    parameter_overrides=_rclpy_parameters(_parameter_dict(spec)),
+                    cli_args=cli or None,
+                )
+            except Exception as err:
+                raise StartupError(
+                    f"{spec.name} ({spec.module}) failed to start: {err!r}\n"
+                    + "".join(traceback.format_exc(limit=-4))
+                ) from None
+            self.in_process_nodes.append((spec.name, node))
+            self.executor.add_node(node)
+
+    # -- watch ---------------------------------------------------------------------------------
+    def _check_processes(self) -> bool:
+        """Handle exited children; return True when the run is over."""
+        if self.supervisor is None:
+            return False
+        for proc in self.supervisor.newly_exited():
+            code = proc.poll()
+            if proc.name == "simulator" and code == 0:
+                self.outcome = Outcome("completed", "the simulator finished the scenario")
+                return True
+            lines = proc.last_lines()
+            self.outcome = Outcome(
+                "node_died",
+                f"node {proc.name} (pid {proc.pid}) {describe_returncode(code)}",
+                EXIT_FAILED, proc.name, lines,
+            )
+            return True
+        return False
+
+    def _finish_grace(self) -> float:
+        return 30.0 if self.opts.video is not None else 5.0
+
+    def run(self) -> int:
+        """Start everything, watch until done, stop, report; return the exit code."""
+        import rclpy
+        from rclpy.executors import MultiThreadedExecutor, SingleThreadedExecutor
+        from rclpy.signals import SignalHandlerOptions
+
+        from safe_legged_c3bf.run.monitor import MonitorNode
+
+        plan, opts = self.plan, self.opts
+        env = dict(os.environ)
+        self._check_modules()
+        rclpy.init(args=None, signal_handler_options=SignalHandlerOptions.NO)
+        redirect = None
+        try:
+            if opts.in_process and not opts.verbose:
+                redirect = _StderrToFile(plan.run_dir / "logs" / "in_process.log")
+            self.monitor = MonitorNode(cli_args=_remap_args(plan.remaps) or None)
+            self.monitor.goal = plan.context.goal
+            if opts.in_process and opts.executor == "multi":
+                self.executor = MultiThreadedExecutor(num_threads=4)
+            else:
+                self.executor = SingleThreadedExecutor()
+            self.executor.add_node(self.monitor)
+            self.wall_start = time.monotonic()
+            try:
+                if opts.in_process:
+                    self._start_in_process()
+                else:
+                    self._start_processes(env)
+                if not self.stop_request:
+                    self._watch()
+                if self._done:
+                    self._drain()
+            except StartupError as err:
+                self.outcome = Outcome("startup_failed", str(err), EXIT_STARTUP)
+            except Exception as err:  # noqa: BLE001 - a node raised inside the executor
+                self.outcome = self._callback_failure(err)
+            if self.stop_request and not self._done and self.outcome.kind in (
+                "completed", "startup_failed"
+            ):
+                sig = self.stop_request.signum
+                self.outcome = Outcome(
+                    "interrupted", f"stopped by {signal.Signals(sig).name}",
+                    EXIT_SIGNAL.get(sig, 128 + sig),
+                )
+            self._stop_all()
+            if redirect is not None:
+                redirect.restore()
+                redirect = None
+            return self._finish()
+        finally:
+            if redirect is not None:
+                redirect.restore()
+            self.stop_request.restore()
+            if self.executor is not None:
+                self.executor.shutdown(timeout_sec=1.0)
+            self._destroy_in_process_nodes()
+            if self.monitor is not None:
+                self.monitor.destroy_node()
+            rclpy.try_shutdown()
+
+    def _drain(self, timeout: float = 2.0) -> None:
+        """Let the monitor (and an in-process recorder) catch up with the last messages."""
+        deadline = time.monotonic() + timeout
+        target = self.plan.context.duration - 1e-3
+        while time.monotonic() < deadline and not self.stop_request:
+            if self.monitor.sim_time is not None and self.monitor.sim_time >= target:
+                break
+            self.executor.spin_once(timeout_sec=0.05)
+
+    def _destroy_in_process_nodes(self) -> None:
+        """Destroy the composed nodes, last started first (the simulator writes its summary)."""
+        while self.in_process_nodes:
+            name, node = self.in_process_nodes.pop()
+            try:
+                if self.executor is not None:
+                    self.executor.remove_node(node)
+                node.destroy_node()
+            except Exception as err:  # noqa: BLE001 - report and go on stopping the rest
+                _err(None, f"{name}: error while stopping: {err!r}")
+
+    _done = False
+
+    def _watch(self) -> None:
+        plan, opts, monitor = self.plan, self.opts, self.monitor
+        duration = plan.context.duration
+        started_at: float | None = None
+        reached_at: float | None = None
+        last_progress_sim, last_progress_wall = -math.inf, time.monotonic()
+        last_check = -math.inf
+        while not self.stop_request:
+            self.executor.spin_once(timeout_sec=0.05)
+            now = time.monotonic()
+            if now - last_check < HOUSEKEEPING_PERIOD:
+                continue  # keep up with the message stream; check the run 10 times a second
+            last_check = now
+            t = monitor.sim_time
+            if t is not None and t > 0 and started_at is None:
+                started_at = now  # physics runs (the simulator waits for a first command)
+            if t is not None and t > last_progress_sim:
+                last_progress_sim, last_progress_wall = t, now
+            duration_reached = t is not None and t >= duration - 1e-6
+            if duration_reached and reached_at is None:
+                reached_at = now
+            if self._check_processes():
+                self._done = self.outcome.kind == "completed"
+                return
+            if self._in_process_finished():
+                self.outcome = Outcome("completed", "the simulator finished the scenario")
+                self._done = True
+                return
+            if reached_at is not None and (
+                self.supervisor is None or now - reached_at > self._finish_grace()
+            ):
+                self.outcome = Outcome("completed", "scenario duration reached")
+                self._done = True
+                return
+            if started_at is None and now - self.wall_start > opts.startup_timeout:
+                what = (
+                    "no message from the simulator" if t is None
+                    else "simulation time still 0 (no joint command reached the simulator)"
+                )
+                self.outcome = Outcome(
+                    "startup_failed",
+                    f"{what} after {opts.startup_timeout:g} s; nodes seen: "
+                    f"{', '.join(sorted(set(monitor.get_node_names()))) or 'none'}",
+                    EXIT_STARTUP,
+                )
+                return
+            if (started_at is not None and reached_at is None
+                    and now - last_progress_wall > opts.stall_timeout):
+                self.outcome = Outcome(
+                    "stalled", f"simulation time stuck at {last_progress_sim:.2f} s for "
+                    f"{opts.stall_timeout:g} s", EXIT_FAILED,
+                )
+                return
+            self.progress.update(progress_text(monitor, duration))
+
+    def _in_process_finished(self) -> bool:
+        return any(
+            name == "simulator" and bool(getattr(node, "finished", False))
+            for name, node in self.in_process_nodes
+        )
+
+    def _callback_failure(self, err: BaseException) -> Outcome:
+        frames = traceback.extract_tb(err.__traceback__)
+        node = None
+        for frame in reversed(frames):
+            for name, module in GRAPH_NODES:
+                if frame.filename.endswith(module.rsplit(".", 1)[1] + ".py"):
+                    node = name
+                    break
+            if node:
+                break
+        lines = traceback.format_exception(err)
+        tail = "".join(lines).splitlines()[-15:]
+        return Outcome(
+            "node_died", f"node {node or '?'} raised {type(err).__name__}: {err}", EXIT_FAILED,
+            node, tail,
+        )
+
+    # -- stop ----------------------------------------------------------------------------------
+    def _stop_all(self) -> None:
+        if self.supervisor is None:
+            self._destroy_in_process_nodes()
+            return
+        deadline = time.monotonic() + 4.5
+        graph = [p for name, p in self.processes.items() if name != "recorder"]
+        recorder = [p for name, p in self.processes.items() if name == "recorder"]
+        escalated = self.supervisor.stop(graph, deadline=deadline - 1.0 if recorder else deadline)
+        if recorder:
+            escalated += self.supervisor.stop(recorder, deadline=deadline)
+        for proc in escalated:
+            self.outcome.details.append(
+                f"{proc.name} did not stop on SIGINT: {describe_returncode(proc.poll())}"
+            )
+
+    # -- report --------------------------------------------------------------------------------
+    def _finish(self) -> int:
+        import json
+
+        self.progress.clear()
+        plan, outcome = self.plan, self.outcome
+        ctx = plan.context
+        ctx.wall_time = time.monotonic() - self.wall_start
+        ctx.outcome, ctx.reason = outcome.kind, outcome.reason
+        if outcome.kind == "node_died":
+            label = "traceback" if self.supervisor is None else "last lines of its stderr"
+            _err(None, outcome.reason + (
+                f"; {label}:" if outcome.details else " (no stderr output)"))
+            for line in outcome.details:
+                print(f"    {line}", file=sys.stderr)
+            log = plan.run_dir / "logs" / f"{outcome.failed_node}.log"
+            if log.exists():
+                print(f"  full log: {log}", file=sys.stderr)
+            print("bringup: stopped the other nodes", file=sys.stderr, flush=True)
+        elif outcome.kind != "completed":
+            _err(None, f"{outcome.kind.replace('_', ' ')}: {outcome.reason}")
+        extra: dict[str, Any] = {
+            "exit_code": outcome.exit_code,
+            "command": sys.argv,
+            "ros_domain_id": os.environ.get("ROS_DOMAIN_ID"),
+            "scenario_file": str(plan.scenario_file),
+            "nodes": {
+                name: {"pid": p.pid, "module": p.spec.module,
+                       "exit": describe_returncode(p.poll()), "log": str(p.log_path)}
+                for name, p in self.processes.items()
+            } or {name: {"module": mod, "in_process": True} for name, mod in
+                  ((s.name, s.module) for s in plan.specs)},
+        }
+        if outcome.details:
+            extra["failure_details"] = outcome.details
+        simulator = None
+        sim_summary = plan.run_dir / "simulator_summary.json"
+        if sim_summary.exists():
+            try:
+                simulator = json.loads(sim_summary.read_text())
+            except (OSError, ValueError):
+                simulator = None
+        if self.opts.record is not None:
+            extra["recording"] = str(self.opts.record.resolve())
+        if self.opts.video is not None:
+            video = self.opts.video.resolve()
+            extra["video"] = str(video) if video.is_file() else None
+            if not video.is_file():
+                _err(None, f"--video: the simulator wrote no video to {video} (its node must "
+                     "support the video_path / video_fps parameters)")
+        monitor = self.monitor
+        report = write_run_folder(
+            plan.run_dir, monitor.data, ctx, monitor.sim_time, extra, simulator
+        )
+        print(format_summary(report["summary"], plan.run_dir), flush=True)
+        return outcome.exit_code
+
+
+# ------------------------------------------------------------------------------ entry point
+
+
+def _isolate(opts: argparse.Namespace):  # noqa: ANN202 - DomainLease | None
+    """Choose the ROS domain for this process and every child (before rclpy starts)."""
+    if opts.domain_id is not None:
+        if not 0 <= opts.domain_id <= 232:
+            raise StartupError("--domain-id must be in 0..232")
+        os.environ["ROS_DOMAIN_ID"] = str(opts.domain_id)
+        return None
+    from safe_legged_c3bf.ros_domain import isolate_environment
+
+    try:
+        _, lease = isolate_environment()
+    except RuntimeError as err:
+        raise StartupError(str(err)) from None
+    return lease
+
+
+def main(args: list[str] | None = None) -> int:
+    """Command-line entry point."""
+    opts = build_parser().parse_args(sys.argv[1:] if args is None else args)
+    if opts.list_scenarios:
+        from safe_legged_c3bf.sim.scenario import available_scenarios
+
+        print("\n".join(available_scenarios()))
+        return EXIT_OK
+    lease = None
+    try:
+        plan = make_plan(opts)
+        lease = _isolate(opts)
+    except StartupError as err:
+        print(f"bringup: start-up failed: {err}", file=sys.stderr)
+        return EXIT_STARTUP
+    domain = os.environ.get("ROS_DOMAIN_ID", "0")
+    local = os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE") == "LOCALHOST"
+    print(
+        f"bringup: scenario {plan.scenario.name} ({plan.context.robot}, "
+        f"{plan.scenario.duration:g} s sim), "
+        f"filter {'on' if plan.context.filter_enabled else 'OFF'}, "
+        f"{'in-process' if opts.in_process else 'one process per node'}\n"
+        f"bringup: ROS domain {domain}{' (localhost only)' if local else ''}; watch with "
+        f"`python -m safe_legged_c3bf.echo /cmd_vel_safe --domain-id {domain}`\n"
+        f"bringup: run folder {plan.run_dir}",
+        flush=True,
+    )
+    try:
+        return Bringup(opts, plan).run()
+    except StartupError as err:
+        print(f"bringup: start-up failed: {err}", file=sys.stderr)
+        return EXIT_STARTUP
+    finally:
+        if lease is not None:
+            lease.release()
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
