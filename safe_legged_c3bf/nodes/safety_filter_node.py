@@ -156,10 +156,7 @@ class SafetyFilterNode(Node):
         t = self._base.stamp
         period = 1.0 / self.cycle.params.rate
         if self._last_cycle is None or t - self._last_cycle >= period - 1e-6:
-            self._run_cycle(t)
-            self.latencies.append(time.perf_counter() - received)
-            if len(self.latencies) > 10000:
-                del self.latencies[:5000]
+            self._run_cycle(t, received)
 
     def _on_timer(self) -> None:
         t = self._now()
@@ -168,14 +165,19 @@ class SafetyFilterNode(Node):
             self._run_cycle(t)
 
     # -- cycle ------------------------------------------------------------------------------
-    def _run_cycle(self, t: float) -> None:
+    def _run_cycle(self, t: float, received: float | None = None) -> None:
+        """Run one cycle; ``received`` is the wall time the triggering odometry arrived."""
         out = self.cycle.step(
             t, self._reference, self._reference_time, self._base, self._obstacles,
             self._obstacles_time,
         )
+        self._cmd_pub.publish(ros_common.command_to_twist(out.command))
+        if received is not None:
+            self.latencies.append(time.perf_counter() - received)
+            if len(self.latencies) > 10000:
+                del self.latencies[:5000]
         self._last_cycle = t
         self.cycles += 1
-        self._cmd_pub.publish(ros_common.command_to_twist(out.command))
         self._state_pub.publish(self._state_msg(t, out))
         self._last_output = out
         if out.status != self._last_status:
