@@ -1,0 +1,209 @@
+"""Gait controller node: /cmd_vel_safe + /odom + /joint_states -> /joint_commands.
+
+Hosts any :class:`~safe_legged_c3bf.gait_controller.GaitController` (the A1 convex-MPC trot or
+the biped ZMP walk, chosen by the ``robot`` parameter). It ticks on incoming robot state: when
+/odom and /joint_states of one stamp have both arrived and at least ``control_period`` has
+passed since the last tick, it runs the controller and publishes a MotorCommand stamped with
+that state's time. No /cmd_vel_safe for ``command_timeout`` seconds (sim time) -> the command
+becomes zero and the robot stops and stands.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+from geometry_msgs.msg import Twist
+from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import SetParametersResult
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+
+from safe_legged_c3bf import topics
+from safe_legged_c3bf.controllers import make_gait_controller
+from safe_legged_c3bf.gait_controller import VelocityCommand
+from safe_legged_c3bf.nodes import ros_common
+from safe_legged_c3bf_msgs.msg import MotorCommand
+
+
+class GaitControllerNode(Node):
+    """Thin rclpy wrapper around a gait controller."""
+
+    def __init__(self, **kwargs) -> None:
+        """Create the node; ``kwargs`` go to rclpy's Node (context, parameter_overrides...)."""
+        super().__init__("gait_controller", **kwargs)
+        ros_common.use_sim_time(self)
+        self.declare_parameter("robot", "quadruped")
+        self.declare_parameter("command_timeout", 0.5)
+        self.declare_parameter("controller_config", "")
+        self.declare_parameter("diagnostics_period", 1.0)
+        self._timeout = float(self.get_parameter("command_timeout").value)
+        if not self._timeout > 0:
+            raise ValueError("command_timeout must be > 0 s")
+        robot = str(self.get_parameter("robot").value)
+        self.controller = make_gait_controller(
+            robot, str(self.get_parameter("controller_config").value) or None
+        )
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+
+        self._names_index: np.ndarray | None = None
+        self._names_key: tuple[str, ...] = ()
+        self._odom: Odometry | None = None
+        self._joints: JointState | None = None
+        self._last_tick: float | None = None
+        self._last_processed_stamp = -math.inf
+        self._command = VelocityCommand()
+        self._command_time: float | None = None
+        self._dropped = 0
+        self._ticks = 0
+        self._tick_wall = 0.0
+        self._command_stale = True
+
+        self._pub = self.create_publisher(
+            MotorCommand, topics.JOINT_COMMANDS.name, ros_common.qos(topics.JOINT_COMMANDS)
+        )
+        self._diag_pub = self.create_publisher(
+            topics.DIAGNOSTICS.msg_class(), topics.DIAGNOSTICS.name,
+            ros_common.qos(topics.DIAGNOSTICS),
+        )
+        self.create_subscription(
+            Odometry, topics.ODOM.name, self._on_odom, ros_common.qos(topics.ODOM)
+        )
+        self.create_subscription(
+            JointState, topics.JOINT_STATES.name, self._on_joints,
+            ros_common.qos(topics.JOINT_STATES),
+        )
+        self.create_subscription(
+            Twist, topics.CMD_VEL_SAFE.name, self._on_cmd, ros_common.qos(topics.CMD_VEL_SAFE)
+        )
+        self.create_timer(
+            float(self.get_parameter("diagnostics_period").value), self._publish_diagnostics
+        )
+        self.get_logger().info(
+            f"gait controller for '{robot}' ({type(self.controller).__name__}), "
+            f"period {self.controller.control_period * 1e3:.1f} ms"
+        )
+
+    def _on_set_parameters(self, params) -> SetParametersResult:
+        for p in params:
+            if p.name == "command_timeout":
+                if not (isinstance(p.value, float | int) and p.value > 0):
+                    return SetParametersResult(
+                        successful=False, reason="command_timeout must be > 0 s"
+                    )
+                self._timeout = float(p.value)
+            elif p.name in ("robot", "controller_config"):
+                return SetParametersResult(
+                    successful=False, reason=f"{p.name} is fixed at start-up"
+                )
+        return SetParametersResult(successful=True)
+
+    # -- inputs -----------------------------------------------------------------------------
+    def _state_time(self) -> float | None:
+        return None if self._odom is None else ros_common.from_time_msg(self._odom.header.stamp)
+
+    def _on_cmd(self, msg: Twist) -> None:
+        if not ros_common.twist_is_finite(msg):
+            self._dropped += 1
+            self.get_logger().warn("dropped a non-finite /cmd_vel_safe", throttle_duration_sec=1.0)
+            return
+        self._command = ros_common.twist_to_command(msg)
+        self._command_time = self._state_time()
+
+    def _on_odom(self, msg: Odometry) -> None:
+        if not ros_common.odometry_is_finite(msg):
+            self._dropped += 1
+            return
+        self._odom = msg
+        self._maybe_tick()
+
+    def _on_joints(self, msg: JointState) -> None:
+        if len(msg.position) != len(msg.name) or not all(
+            math.isfinite(v) for v in (*msg.position, *msg.velocity)
+        ):
+            self._dropped += 1
+            return
+        self._joints = msg
+        self._maybe_tick()
+
+    # -- control ----------------------------------------------------------------------------
+    def _joint_vectors(self, msg: JointState) -> tuple[np.ndarray, np.ndarray]:
+        key = tuple(msg.name)
+        if key != self._names_key:
+            index = {n: i for i, n in enumerate(msg.name)}
+            missing = [n for n in self.controller.joint_names if n not in index]
+            if missing:
+                raise KeyError(f"/joint_states lacks joints {missing}")
+            self._names_index = np.array([index[n] for n in self.controller.joint_names])
+            self._names_key = key
+        q = np.asarray(msg.position, dtype=float)[self._names_index]
+        dq = (
+            np.asarray(msg.velocity, dtype=float)[self._names_index]
+            if len(msg.velocity) == len(msg.name)
+            else np.zeros(len(self._names_index))
+        )
+        return q, dq
+
+    def _active_command(self, t: float) -> VelocityCommand:
+        stale = self._command_time is None or t - self._command_time > self._timeout
+        if stale and not self._command_stale:
+            self.get_logger().warn("no /cmd_vel_safe within the timeout: stopping and standing")
+        self._command_stale = stale
+        return VelocityCommand() if stale else self._command
+
+    def _maybe_tick(self) -> None:
+        if self._odom is None or self._joints is None:
+            return
+        t = ros_common.from_time_msg(self._odom.header.stamp)
+        if ros_common.from_time_msg(self._joints.header.stamp) != t:
+            return  # wait for the matching half of this state
+        if t <= self._last_processed_stamp:
+            return
+        period = self.controller.control_period
+        if self._last_tick is not None and t - self._last_tick < period - 1e-9:
+            return
+        try:
+            q, dq = self._joint_vectors(self._joints)
+        except KeyError as err:
+            self.get_logger().error(str(err), throttle_duration_sec=5.0)
+            return
+        base = ros_common.odometry_to_base_state(self._odom)
+        start = time.perf_counter()
+        cmd = self.controller.update(t, base, q, dq, self._active_command(t))
+        self._tick_wall += time.perf_counter() - start
+        self._ticks += 1
+        self._last_tick = t
+        self._last_processed_stamp = t
+        if not cmd.is_finite():
+            self._dropped += 1
+            self.get_logger().error("controller produced a non-finite command; not sent")
+            return
+        msg = MotorCommand()
+        msg.header.stamp = self._odom.header.stamp
+        msg.header.frame_id = topics.BASE_FRAME
+        msg.name = list(cmd.names)
+        msg.q, msg.dq, msg.kp, msg.kd, msg.tau = (
+            cmd.q.tolist(), cmd.dq.tolist(), cmd.kp.tolist(), cmd.kd.tolist(), cmd.tau.tolist()
+        )
+        self._pub.publish(msg)
+
+    def _publish_diagnostics(self) -> None:
+        mean_ms = 1e3 * self._tick_wall / self._ticks if self._ticks else 0.0
+        level = "warn" if self._command_stale else "ok"
+        status = ros_common.diagnostic_status(
+            "gait_controller",
+            level,
+            "command stale: standing" if self._command_stale else "tracking /cmd_vel_safe",
+            {"ticks": self._ticks, "mean_tick_ms": f"{mean_ms:.3f}", "dropped": self._dropped},
+        )
+        self._diag_pub.publish(ros_common.diagnostic_array(self, [status]))
+
+
+def main(args: list[str] | None = None) -> int:
+    """Run the gait controller node as its own process."""
+    return ros_common.run_node(GaitControllerNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
