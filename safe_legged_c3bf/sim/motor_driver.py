@@ -58,6 +58,9 @@ class MotorDriver:
         self._kd = np.zeros(n)
         self._tau = np.zeros(n)
         self._last_command_time: float | None = None
+        self._limits = robot.torque_limits.tolist()
+        self._indices = robot.joint_indices.tolist()
+        self._gains: tuple[list[float], ...] = tuple([0.0] * n for _ in range(5))
         self.mode = DriverMode.WAITING
         self.rejected_commands = 0
         self.last_torques = np.zeros(n)
@@ -81,37 +84,54 @@ class MotorDriver:
         self._kp[idx] = command.kp
         self._kd[idx] = command.kd
         self._tau[idx] = command.tau
+        self._gains = tuple(a.tolist() for a in (self._kp, self._q, self._kd, self._dq, self._tau))
         self._last_command_time = now
         return True
 
-    def compute_torques(self, q: np.ndarray, dq: np.ndarray, now: float) -> np.ndarray:
-        """Torques (N m) the drivers apply given measured joint positions and velocities."""
+    def _update_mode(self, now: float) -> DriverMode:
         if self._last_command_time is None:
             self.mode = DriverMode.WAITING
         elif now - self._last_command_time > self.timeout:
             self.mode = DriverMode.DAMPING
         else:
             self.mode = DriverMode.ACTIVE
-        if self.mode is DriverMode.ACTIVE:
+        return self.mode
+
+    def compute_torques(self, q: np.ndarray, dq: np.ndarray, now: float) -> np.ndarray:
+        """Torques (N m) the drivers apply given measured joint positions and velocities."""
+        if self._update_mode(now) is DriverMode.ACTIVE:
             tau = self._kp * (self._q - q) + self._kd * (self._dq - dq) + self._tau
         else:
             tau = -self.damping_kd * dq
-        return np.clip(tau, -self._robot.torque_limits, self._robot.torque_limits)
+        limits = self._robot.torque_limits
+        return np.minimum(np.maximum(tau, -limits), limits)
 
     def apply(self, now: float) -> np.ndarray:
-        """Read the joints, compute and apply torques for the next physics step."""
+        """Read the joints, compute and apply torques for the next physics step.
+
+        Same arithmetic as :meth:`compute_torques`, on plain floats: for a dozen joints that
+        is several times faster than numpy, and this runs at every physics step.
+        """
         states = pybullet.getJointStates(
             self._robot.body_id, self._robot.joint_indices, physicsClientId=self._client
         )
-        q = np.fromiter((s[0] for s in states), float, len(states))
-        dq = np.fromiter((s[1] for s in states), float, len(states))
-        tau = self.compute_torques(q, dq, now)
+        limits = self._limits
+        tau = []
+        if self._update_mode(now) is DriverMode.ACTIVE:
+            for s, kp, q, kd, dq, ff, lim in zip(states, *self._gains, limits, strict=True):
+                t = kp * (q - s[0]) + kd * (dq - s[1]) + ff
+                tau.append(lim if t > lim else -lim if t < -lim else t)
+        else:
+            kd = self.damping_kd
+            for s, lim in zip(states, limits, strict=True):
+                t = -kd * s[1]
+                tau.append(lim if t > lim else -lim if t < -lim else t)
         pybullet.setJointMotorControlArray(
             self._robot.body_id,
-            self._robot.joint_indices,
+            self._indices,
             pybullet.TORQUE_CONTROL,
-            forces=tau.tolist(),
+            forces=tau,
             physicsClientId=self._client,
         )
-        self.last_torques = tau
-        return tau
+        self.last_torques = np.array(tau)
+        return self.last_torques

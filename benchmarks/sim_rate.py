@@ -1,0 +1,228 @@
+"""Simulator throughput and CPU use, with the A1 and five obstacles, publishing all topics.
+
+The simulator node runs in this process (its physics thread plus an executor spun by this
+script's main thread), together with a stub controller node that sends a constant standing
+MotorCommand at 50 Hz (so the drivers stay active). A separate subscriber process receives
+every topic the simulator publishes (so the messages really go out over DDS) and reports how
+many it got. Two measurements:
+
+1. real_time_factor 0 (as fast as possible): physics steps per wall second;
+2. real_time_factor 1: CPU use of this process (physics thread, executor thread, DDS threads
+   and the stub, which costs well under 1 %), from time.process_time() over a wall interval,
+   in % of one core.
+
+The machine's load average is printed too: on a shared machine the numbers vary with it
+(contention slows the same work down and the process may not even get the CPU it asks for).
+
+Usage: python benchmarks/sim_rate.py [--seconds 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+import yaml
+
+SCENARIO = {
+    "name": "bench_five_obstacles",
+    "robot": {"kind": "quadruped", "position": [0.0, 0.0]},
+    "goal": {"position": [6.0, 0.0]},
+    "duration": 1000.0,
+    "seed": 3,
+    "perception": {"rate": 20.0, "position_noise_std": 0.02, "dropout_probability": 0.05},
+    "obstacles": [
+        {"id": "pillar", "position": [2.0, 0.5], "semi_axes": [0.3, 0.2]},
+        {"id": "box", "position": [3.0, -0.8], "semi_axes": [0.4, 0.25], "orientation": 0.5},
+        {"id": "walker", "position": [1.0, -1.0], "semi_axes": [0.25, 0.2],
+         "motion": {"type": "waypoints", "waypoints": [[1.0, 1.0]], "speed": 0.4}},
+        {"id": "cart", "position": [4.0, 2.0], "semi_axes": [0.3, 0.3],
+         "motion": {"type": "constant_velocity", "velocity": [0.0, -0.1]}},
+        {"id": "bar", "plane": "horizontal", "position": [0.6, 0.0, 0.45],
+         "semi_axes": [0.05, 0.05], "extent": 3.0},
+    ],
+}
+
+
+def _sim_topics():
+    from safe_legged_c3bf import topics
+
+    return [
+        topics.CLOCK, topics.ODOM, topics.JOINT_STATES, topics.OBSTACLE_DETECTIONS,
+        topics.GROUND_TRUTH_SAFETY, topics.GROUND_TRUTH_OBSTACLES, topics.DIAGNOSTICS,
+    ]
+
+
+def count_topics() -> None:
+    """Subscriber process: count messages on every simulator topic until stdin closes."""
+    import threading
+
+    import rclpy
+
+    from safe_legged_c3bf.nodes.ros_common import qos
+
+    rclpy.init()
+    node = rclpy.create_node("topic_counter")
+    counts = {t.name: 0 for t in _sim_topics()}
+
+    def counter(name):
+        def callback(_msg) -> None:
+            counts[name] += 1
+
+        return callback
+
+    for topic in _sim_topics():
+        node.create_subscription(topic.msg_class(), topic.name, counter(topic.name), qos(topic))
+    stop = threading.Event()
+    threading.Thread(target=lambda: (sys.stdin.read(), stop.set()), daemon=True).start()
+    while not stop.is_set():
+        rclpy.spin_once(node, timeout_sec=0.05)
+    print(json.dumps(counts), flush=True)
+    node.destroy_node()
+    rclpy.try_shutdown()
+
+
+def run(
+    seconds: float, rtf: float, scenario_path: str, overrides: dict | None = None
+) -> dict[str, float]:
+    """Measure one run of ``seconds`` wall time; returns sim/wall/cpu seconds and msg rates."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+
+    from safe_legged_c3bf import topics
+    from safe_legged_c3bf.nodes.ros_common import qos
+    from safe_legged_c3bf.nodes.simulator_node import SimulatorNode
+    from safe_legged_c3bf_msgs.msg import MotorCommand
+
+    counter = subprocess.Popen(
+        [sys.executable, __file__, "--count-topics"],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+    )
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    executor = SingleThreadedExecutor(context=context)
+    sim_node = SimulatorNode(
+        context=context,
+        parameter_overrides=[
+            Parameter("scenario", value=scenario_path),
+            Parameter("real_time_factor", value=rtf),
+        ] + [Parameter(k, value=v) for k, v in (overrides or {}).items()],
+    )
+    stub = rclpy.create_node("stub_controller", context=context)
+    sim = sim_node.simulation
+    pose = sim.robot.spec.standing_pose
+    n = len(sim.joint_names)
+    command = MotorCommand(
+        name=sim.joint_names, q=[pose[j] for j in sim.joint_names], dq=[0.0] * n,
+        kp=[60.0] * n, kd=[2.0] * n, tau=[0.0] * n,
+    )
+    pub = stub.create_publisher(
+        MotorCommand, topics.JOINT_COMMANDS.name, qos(topics.JOINT_COMMANDS)
+    )
+    stub.create_timer(0.02, lambda: pub.publish(command))
+    executor.add_node(sim_node)
+    try:
+        # The subscriber process must hear every topic before physics starts.
+        names = {t.name for t in _sim_topics()}
+        deadline = time.monotonic() + 20.0
+        while time.monotonic() < deadline:
+            matched = [
+                p for p in sim_node.publishers
+                if p.topic_name in names and p.get_subscription_count() > 0
+            ]
+            if len(matched) == len(names):
+                break
+            executor.spin_once(timeout_sec=0.01)
+        else:
+            raise RuntimeError("the topic counter process was not discovered")
+        executor.add_node(stub)
+        deadline = time.monotonic() + 10.0
+        while sim_node.waiting_for_command and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.01)
+        start_sim = sim.time
+        end = time.monotonic() + 0.5  # warm-up
+        while time.monotonic() < end:
+            executor.spin_once(timeout_sec=0.01)
+        sim0, wall0, cpu0 = sim.time, time.monotonic(), time.process_time()
+        end = wall0 + seconds
+        while time.monotonic() < end:
+            executor.spin_once(timeout_sec=0.01)
+        result = {
+            "sim": sim.time - sim0,
+            "wall": time.monotonic() - wall0,
+            "cpu": time.process_time() - cpu0,
+        }
+        total_sim = sim.time - start_sim
+        # Let the last messages arrive, then stop the counter.
+        end = time.monotonic() + 0.3
+        while time.monotonic() < end:
+            executor.spin_once(timeout_sec=0.01)
+    finally:
+        for node in (sim_node, stub):
+            if node in executor.get_nodes():
+                executor.remove_node(node)
+            node.destroy_node()
+        executor.shutdown()
+        rclpy.try_shutdown(context=context)
+        try:
+            out, _ = counter.communicate(input="", timeout=30)  # closing stdin stops it
+        except subprocess.TimeoutExpired:
+            counter.kill()
+            out, _ = counter.communicate()
+    counts = json.loads(out.strip().splitlines()[-1])
+    result["rates"] = {name: c / total_sim for name, c in counts.items()}
+    return result
+
+
+def _print_rates(rates: dict[str, float]) -> None:
+    text = ", ".join(f"{name} {rate:.0f}" for name, rate in rates.items())
+    print(f"    received by a subscriber process, messages per sim second: {text}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=5.0, help="wall seconds per measurement")
+    parser.add_argument("--state-rate", type=float, help="simulator state_rate (Hz)")
+    parser.add_argument("--count-topics", action="store_true", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.count_topics:
+        count_topics()
+        return
+    from safe_legged_c3bf.ros_domain import isolate_environment
+
+    _, lease = isolate_environment()
+    print(f"load average before: {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores)")
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "bench_five_obstacles.yaml")
+        with open(path, "w", encoding="utf-8") as f:
+            yaml.safe_dump(SCENARIO, f)
+        overrides = {} if args.state_rate is None else {"state_rate": args.state_rate}
+        if overrides:
+            print(f"simulator parameters: {overrides}")
+        r = run(args.seconds, 0.0, path, overrides)
+        print(
+            f"real_time_factor 0 (as fast as possible): {r['sim'] * 1000.0 / r['wall']:.0f} "
+            f"physics steps/s (A1 + 5 obstacles, all topics published), "
+            f"sim/wall = {r['sim'] / r['wall']:.2f}, CPU {100.0 * r['cpu'] / r['wall']:.0f} %"
+        )
+        _print_rates(r["rates"])
+        r = run(args.seconds, 1.0, path, overrides)
+        print(
+            f"real_time_factor 1: sim/wall = {r['sim'] / r['wall']:.3f} "
+            f"({r['sim'] * 1000.0 / r['wall']:.0f} physics steps/s), CPU of the simulator "
+            f"process {100.0 * r['cpu'] / r['wall']:.1f} % of one core (process_time "
+            f"{r['cpu']:.2f} s over {r['wall']:.2f} s wall)"
+        )
+        _print_rates(r["rates"])
+    print(f"load average after: {os.getloadavg()[0]:.2f}")
+    lease.release()
+
+
+if __name__ == "__main__":
+    main()

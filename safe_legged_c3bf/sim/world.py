@@ -1,0 +1,472 @@
+"""The simulated world without ROS: PyBullet, one legged robot, kinematic obstacles.
+
+:class:`Simulation` loads a scenario (ground plane, robot in its standing posture, obstacles),
+advances physics in fixed steps with the emulated motor drivers applying the latest joint
+command at every step, and exposes the robot state, the true obstacle states, noisy
+detections, ground truth (contacts, minimum distance, collisions, falls), a run summary and
+follow-camera frames.
+
+Determinism: for a given scenario, seed, physics step and sequence of (step index, command)
+pairs, every output is identical from run to run (PyBullet is deterministic on one machine
+with ``deterministicOverlappingPairs``; obstacle motion is a pure function of time; the
+perception noise comes from a generator seeded by the scenario seed and consumes a fixed
+number of draws per frame). What is *not* deterministic is anything that depends on wall
+clock, e.g. when a ROS node applies commands relative to physics steps outside lockstep mode.
+
+Typical use::
+
+    with Simulation("quadruped_default") as sim:
+        sim.set_command(command)
+        while not sim.finished:
+            sim.step(2)
+            state = sim.base_state()
+        print(sim.summary())
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pybullet
+import pybullet_data
+from numpy.typing import ArrayLike
+
+from safe_legged_c3bf.base_state import BaseState
+from safe_legged_c3bf.joint_command import JointCommand
+from safe_legged_c3bf.sim.camera import CameraConfig, FollowCamera
+from safe_legged_c3bf.sim.ground_truth import GroundTruthMonitor, GroundTruthSample
+from safe_legged_c3bf.sim.motor_driver import DriverMode, MotorDriver
+from safe_legged_c3bf.sim.obstacles import KinematicObstacle, ObstacleState
+from safe_legged_c3bf.sim.perception import PerceptionModel
+from safe_legged_c3bf.sim.robots import load_robot
+from safe_legged_c3bf.sim.scenario import Scenario, load_scenario
+
+
+@dataclass(frozen=True)
+class JointStateSample:
+    """Measured joint state, in the robot's joint order.
+
+    Attributes:
+        names: joint names.
+        position: (n,) joint angles (rad).
+        velocity: (n,) joint velocities (rad/s).
+        effort: (n,) torques applied during the last physics step (N m).
+        stamp: sim time (s).
+
+    """
+
+    names: list[str]
+    position: np.ndarray
+    velocity: np.ndarray
+    effort: np.ndarray
+    stamp: float
+
+
+def _rotate_inverse(q: tuple[float, ...], v: tuple[float, ...]) -> tuple[float, float, float]:
+    """Rotate ``v`` by the inverse of the unit quaternion ``q`` (x, y, z, w)."""
+    x, y, z, w = -q[0], -q[1], -q[2], q[3]
+    # v' = v + 2 w (u x v) + 2 u x (u x v), u = (x, y, z)
+    cx = y * v[2] - z * v[1]
+    cy = z * v[0] - x * v[2]
+    cz = x * v[1] - y * v[0]
+    return (
+        v[0] + 2.0 * (w * cx + y * cz - z * cy),
+        v[1] + 2.0 * (w * cy + z * cx - x * cz),
+        v[2] + 2.0 * (w * cz + x * cy - y * cx),
+    )
+
+
+def _json_number(x: float | None) -> float | None:
+    if x is None or not math.isfinite(x):
+        return None
+    return float(x)
+
+
+class Simulation:
+    """A deterministic PyBullet world built from a scenario (no ROS)."""
+
+    def __init__(
+        self,
+        scenario: Scenario | str | os.PathLike[str],
+        *,
+        physics_dt: float = 0.001,
+        gui: bool = False,
+        seed: int | None = None,
+        command_timeout: float = 0.1,
+        damping_kd: float = 1.0,
+        obstacle_sync_steps: int = 10,
+        mesh_segments: int = 32,
+    ) -> None:
+        """Build the world.
+
+        Args:
+            scenario: a :class:`Scenario`, a scenario name or a path.
+            physics_dt: physics step (s).
+            gui: open PyBullet's GUI instead of a headless (DIRECT) client.
+            seed: overrides the scenario's seed.
+            command_timeout: sim time (s) without a new command before the drivers damp.
+            damping_kd: damping gain of the drivers' damping mode (N m s / rad).
+            obstacle_sync_steps: moving obstacles are re-placed on their script at least every
+                this many steps (and at every velocity change); PyBullet integrates their
+                velocity in between.
+            mesh_segments: vertices per ring of the obstacles' ellipse polygons.
+
+        """
+        if not physics_dt > 0:
+            raise ValueError("physics_dt must be positive")
+        if obstacle_sync_steps < 1 or mesh_segments < 8:
+            raise ValueError("obstacle_sync_steps must be >= 1 and mesh_segments >= 8")
+        self.scenario = load_scenario(scenario)
+        self.seed = self.scenario.seed if seed is None else int(seed)
+        self.physics_dt = float(physics_dt)
+        self._total_steps = int(round(self.scenario.duration / self.physics_dt))
+        self._sync_steps = int(obstacle_sync_steps)
+        self.client = pybullet.connect(pybullet.GUI if gui else pybullet.DIRECT)
+        if self.client < 0:
+            raise RuntimeError("cannot connect to PyBullet" + (" GUI" if gui else ""))
+        try:
+            self._build(command_timeout, damping_kd, mesh_segments)
+        except Exception:
+            pybullet.disconnect(self.client)
+            raise
+
+    def _build(self, command_timeout: float, damping_kd: float, mesh_segments: int) -> None:
+        sc, c = self.scenario, self.client
+        pybullet.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=c)
+        pybullet.setPhysicsEngineParameter(
+            fixedTimeStep=self.physics_dt, deterministicOverlappingPairs=1, physicsClientId=c
+        )
+        pybullet.setGravity(0.0, 0.0, -sc.physics.gravity, physicsClientId=c)
+        self.plane_id = pybullet.loadURDF("plane.urdf", physicsClientId=c)
+        pybullet.changeDynamics(
+            self.plane_id, -1, lateralFriction=sc.physics.lateral_friction, physicsClientId=c
+        )
+        self.robot = load_robot(c, sc.robot.model, sc.robot.position, sc.robot.yaw)
+        # PyBullet reports the base's centre of mass frame; base_link is the URDF link frame.
+        info = pybullet.getDynamicsInfo(self.robot.body_id, -1, physicsClientId=c)
+        self._com_to_link = pybullet.invertTransform(info[3], info[4])
+        self.driver = MotorDriver(c, self.robot, timeout=command_timeout, damping_kd=damping_kd)
+        self.obstacles = [KinematicObstacle(c, o, mesh_segments) for o in sc.obstacles]
+        self._moving = [i for i, o in enumerate(self.obstacles) if o.moving]
+        self._next_sync = {i: 0 for i in self._moving}
+        self._centers = [o.script.state(0.0)[0] for o in self.obstacles]
+        self.monitor = GroundTruthMonitor(
+            c, self.robot, self.obstacles, sc.ground_truth, self.physics_dt
+        )
+        (perception_seed,) = np.random.SeedSequence(self.seed).spawn(1)
+        self.perception = PerceptionModel(sc.perception, perception_seed)
+        self._step = 0
+        self._driver_mode = DriverMode.WAITING
+        self.driver_timeouts = 0
+        self.commands_received = 0
+        self.malformed_commands = 0
+        self._goal = np.asarray(sc.goal.position, dtype=float)
+        self._goal_reached_time: float | None = None
+        self._min_goal_distance = math.inf
+        self._camera: FollowCamera | None = None
+        self._record_every = 0
+        self._frames: list[np.ndarray] = []
+        self._closed = False
+        self.monitor.update(0.0, self._centers)
+        self._update_goal(0.0)
+
+    # ------------------------------------------------------------------ properties
+
+    @property
+    def time(self) -> float:
+        """Sim time (s): physics steps taken times the step."""
+        return self._step * self.physics_dt
+
+    @property
+    def step_count(self) -> int:
+        """Physics steps taken."""
+        return self._step
+
+    @property
+    def total_steps(self) -> int:
+        """Physics steps in the scenario's duration."""
+        return self._total_steps
+
+    @property
+    def finished(self) -> bool:
+        """Whether the scenario duration has been reached."""
+        return self._step >= self._total_steps
+
+    @property
+    def joint_names(self) -> list[str]:
+        """Actuated joint names, in the order of :meth:`joint_state`."""
+        return list(self.robot.joint_names)
+
+    @property
+    def driver_mode(self) -> DriverMode:
+        """Mode of the motor drivers during the last step (WAITING before any command)."""
+        return self._driver_mode
+
+    @property
+    def rejected_commands(self) -> int:
+        """Commands rejected (non-finite, negative gains, unknown joints, wrong sizes)."""
+        return self.driver.rejected_commands + self.malformed_commands
+
+    @property
+    def ground_truth(self) -> GroundTruthSample:
+        """Ground truth after the latest physics step."""
+        assert self.monitor.last is not None
+        return self.monitor.last
+
+    @property
+    def collision_count(self) -> int:
+        """Collision events so far."""
+        return self.monitor.collision_count
+
+    # ------------------------------------------------------------------ commands and stepping
+
+    def set_command(self, command: JointCommand) -> bool:
+        """Hand a motor command to the drivers at the current sim time; False if rejected."""
+        accepted = self.driver.set_command(command, self.time)
+        if accepted:
+            self.commands_received += 1
+        return accepted
+
+    def set_command_arrays(
+        self,
+        names: Sequence[str],
+        q: ArrayLike,
+        dq: ArrayLike,
+        kp: ArrayLike,
+        kd: ArrayLike,
+        tau: ArrayLike,
+    ) -> bool:
+        """Like :meth:`set_command` from raw arrays (each len(names) long, or 1 to broadcast).
+
+        Malformed commands (array sizes that do not match) are rejected and counted.
+        """
+        try:
+            command = JointCommand(list(names), q, dq, kp, kd, tau)
+        except (ValueError, TypeError):
+            self.malformed_commands += 1
+            return False
+        return self.set_command(command)
+
+    def step(self, n: int = 1) -> None:
+        """Advance physics by ``n`` steps (continues past the duration if asked to)."""
+        dt, client = self.physics_dt, self.client
+        driver, monitor, obstacles = self.driver, self.monitor, self.obstacles
+        moving, next_sync, centers = self._moving, self._next_sync, self._centers
+        for _ in range(int(n)):
+            k = self._step
+            t = k * dt
+            driver.apply(t)
+            mode = driver.mode
+            if mode is not self._driver_mode:
+                if mode is DriverMode.DAMPING and self._driver_mode is DriverMode.ACTIVE:
+                    self.driver_timeouts += 1
+                self._driver_mode = mode
+            for i in moving:
+                if k >= next_sync[i]:
+                    self._sync_obstacle(i, k, t)
+            pybullet.stepSimulation(physicsClientId=client)
+            k += 1
+            self._step = k
+            t = k * dt
+            for i in moving:
+                centers[i] = obstacles[i].body_position()
+            monitor.update(t, centers)
+            self._update_goal(t)
+            if self._record_every and k % self._record_every == 0:
+                self._frames.append(self.render_frame())
+
+    def _sync_obstacle(self, i: int, k: int, t: float) -> None:
+        obstacle = self.obstacles[i]
+        obstacle.sync(t)
+        change = obstacle.script.next_change(t)
+        next_step = k + self._sync_steps
+        if math.isfinite(change):
+            next_step = min(next_step, max(k + 1, math.ceil(change / self.physics_dt - 1e-9)))
+        self._next_sync[i] = next_step
+
+    def _update_goal(self, t: float) -> None:
+        pos, _ = self._link_pose(self.monitor.last_base_position, self.monitor.last_base_quaternion)
+        distance = math.hypot(pos[0] - self._goal[0], pos[1] - self._goal[1])
+        self._min_goal_distance = min(self._min_goal_distance, distance)
+        if self._goal_reached_time is None and distance <= self.scenario.goal.tolerance:
+            self._goal_reached_time = t
+        self._goal_distance = distance
+
+    # ------------------------------------------------------------------ state
+
+    def base_state(self) -> BaseState:
+        """True base state: pose in odom (= world), twist in base_link, stamped now."""
+        pos, quat, lin, ang = self.base_pose_twist()
+        return BaseState(pos, quat, lin, ang, self.time)
+
+    def base_pose_twist(self) -> tuple[tuple[float, ...], ...]:
+        """(position, quaternion xyzw, linear velocity, angular velocity) as float tuples.
+
+        Pose of base_link (the URDF base frame, not PyBullet's centre-of-mass frame) in odom
+        (= world); the velocity of the base_link origin and the angular velocity, both
+        expressed in base_link. A fast path of :meth:`base_state` for publishing (no numpy).
+        """
+        body, c = self.robot.body_id, self.client
+        com, com_quat = pybullet.getBasePositionAndOrientation(body, physicsClientId=c)
+        lin, ang = pybullet.getBaseVelocity(body, physicsClientId=c)
+        pos, quat = self._link_pose(com, com_quat)
+        # Velocity of the link origin: v_com + w x (p_link - p_com).
+        lx, ly, lz = pos[0] - com[0], pos[1] - com[1], pos[2] - com[2]
+        v = (
+            lin[0] + ang[1] * lz - ang[2] * ly,
+            lin[1] + ang[2] * lx - ang[0] * lz,
+            lin[2] + ang[0] * ly - ang[1] * lx,
+        )
+        return pos, quat, _rotate_inverse(quat, v), _rotate_inverse(quat, ang)
+
+    def _link_pose(
+        self, com: Sequence[float], com_quat: Sequence[float]
+    ) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        inv_pos, inv_quat = self._com_to_link
+        return pybullet.multiplyTransforms(com, com_quat, inv_pos, inv_quat)
+
+    def joint_state(self) -> JointStateSample:
+        """Measured joint positions, velocities and last applied torques."""
+        q, dq, tau = self.joint_lists()
+        return JointStateSample(
+            list(self.robot.joint_names), np.array(q), np.array(dq), np.array(tau), self.time
+        )
+
+    def joint_lists(self) -> tuple[list[float], list[float], list[float]]:
+        """(positions, velocities, last torques) as plain lists: a fast path for publishing."""
+        states = pybullet.getJointStates(
+            self.robot.body_id, self.robot.joint_indices, physicsClientId=self.client
+        )
+        return [s[0] for s in states], [s[1] for s in states], self.driver.last_torques.tolist()
+
+    def obstacle_states(self) -> list[ObstacleState]:
+        """True obstacle states now (scripted pose and velocity, VELOCITY_MEASURED)."""
+        t = self.time
+        return [o.state(t) for o in self.obstacles]
+
+    def detections(self, include_ids: bool = True) -> list[ObstacleState]:
+        """One simulated perception frame now (noisy, with drop-outs; consumes random draws)."""
+        pos, _ = pybullet.getBasePositionAndOrientation(
+            self.robot.body_id, physicsClientId=self.client
+        )
+        return self.perception.detect(
+            self.obstacles, self.obstacle_states(), np.asarray(pos), include_ids
+        )
+
+    # ------------------------------------------------------------------ camera
+
+    def add_camera(self, config: CameraConfig | None = None) -> FollowCamera:
+        """Create (or replace) the follow camera on the robot base and return it."""
+        self._camera = FollowCamera(self.client, self.robot.body_id, config)
+        return self._camera
+
+    def render_frame(self) -> np.ndarray:
+        """Render one camera frame now ((H, W, 3) uint8; creates a default camera if none)."""
+        if self._camera is None:
+            self.add_camera()
+        assert self._camera is not None
+        return self._camera.render(self.time)
+
+    def record_every(self, steps: int, config: CameraConfig | None = None) -> None:
+        """Render a frame every ``steps`` physics steps into a buffer (0 stops recording).
+
+        Collect the frames with :meth:`take_frames`; writing the video is the caller's job.
+        """
+        if steps < 0:
+            raise ValueError("steps must be >= 0")
+        if steps and (config is not None or self._camera is None):
+            self.add_camera(config)
+        self._record_every = int(steps)
+
+    def take_frames(self) -> list[np.ndarray]:
+        """Return the frames recorded since the last call and clear the buffer."""
+        frames, self._frames = self._frames, []
+        return frames
+
+    # ------------------------------------------------------------------ summary
+
+    def summary(self, extra: dict[str, Any] | None = None) -> dict[str, Any]:
+        """Run summary as a JSON-ready dict (infinite values become None).
+
+        ``extra`` entries (e.g. the node's pacing statistics) are merged in at top level.
+        """
+        sc, stats = self.scenario, self.monitor.stats
+        pos, _ = self._link_pose(self.monitor.last_base_position, self.monitor.last_base_quaternion)
+        out: dict[str, Any] = {
+            "scenario": sc.name,
+            "source": sc.source,
+            "robot": sc.robot.model,
+            "seed": self.seed,
+            "duration": sc.duration,
+            "sim_time": self.time,
+            "physics_steps": self._step,
+            "physics_dt": self.physics_dt,
+            "finished": self.finished,
+            "collision_count": len(stats.collision_events),
+            "collisions": [
+                {"time": e.time, "obstacle_id": e.obstacle_id, "links": list(e.links)}
+                for e in stats.collision_events
+            ],
+            "time_in_collision": stats.time_in_collision,
+            "min_distance": _json_number(stats.min_distance),
+            "min_distance_time": stats.min_distance_time,
+            "min_distance_obstacle": stats.min_distance_obstacle,
+            "min_distance_exact": bool(stats.min_distance < sc.ground_truth.distance_cutoff),
+            "fell": stats.fell,
+            "fall_time": stats.fall_time,
+            "max_tilt": stats.max_tilt,
+            "min_base_height": _json_number(stats.min_base_height),
+            "goal": list(sc.goal.position),
+            "goal_reached": self._goal_reached_time is not None,
+            "goal_reached_time": self._goal_reached_time,
+            "final_goal_distance": self._goal_distance,
+            "min_goal_distance": self._min_goal_distance,
+            "final_base_position": [float(v) for v in pos],
+            "commands_received": self.commands_received,
+            "rejected_commands": self.rejected_commands,
+            "driver_timeouts": self.driver_timeouts,
+            "driver_mode": self._driver_mode.value,
+            "detection_frames": self.perception.frames,
+            "detections_dropped": self.perception.dropped,
+        }
+        if extra:
+            out.update(extra)
+        return out
+
+    def write_summary(
+        self, path: str | os.PathLike[str], extra: dict[str, Any] | None = None
+    ) -> dict[str, Any]:
+        """Write :meth:`summary` as JSON to ``path`` (directories created) and return it."""
+        data = self.summary(extra)
+        target = Path(path)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = target.with_name(target.name + ".tmp")
+        with open(tmp, "w", encoding="utf-8") as f:
+            json.dump(data, f, indent=2, allow_nan=False)
+            f.write("\n")
+        os.replace(tmp, target)
+        return data
+
+    # ------------------------------------------------------------------ lifetime
+
+    def close(self) -> None:
+        """Disconnect the PyBullet client (idempotent)."""
+        if not self._closed:
+            self._closed = True
+            try:
+                pybullet.disconnect(self.client)
+            except pybullet.error:
+                pass
+
+    def __enter__(self) -> Simulation:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,154 @@
+"""Scenario files: lookup by name or path, validation messages naming the bad field."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+import yaml
+
+from safe_legged_c3bf.sim.scenario import (
+    Scenario,
+    ScenarioError,
+    available_scenarios,
+    load_scenario,
+    parse_scenario,
+    resolve_scenario,
+)
+
+BASE = {
+    "robot": {"kind": "quadruped"},
+    "goal": {"position": [3.0, 0.0]},
+    "duration": 1.0,
+    "obstacles": [
+        {"id": "a", "position": [1.0, 1.0], "semi_axes": [0.2, 0.1]},
+        {"id": "b", "position": [2.0, -1.0], "semi_axes": [0.3, 0.3]},
+    ],
+}
+
+
+AXES_MESSAGE = "obstacles[1].semi_axes: must be two positive numbers"
+
+
+def _with(path: str, value):
+    """BASE with one field replaced; ``path`` like 'obstacles.1.semi_axes'."""
+    data = yaml.safe_load(yaml.safe_dump(BASE))
+    node = data
+    keys = path.split(".")
+    for key in keys[:-1]:
+        node = node[int(key)] if key.isdigit() else node.setdefault(key, {})
+    last = keys[-1]
+    if last.isdigit():
+        node[int(last)] = value
+    else:
+        node[last] = value
+    return data
+
+
+def test_packaged_scenarios_load_by_name():
+    names = available_scenarios()
+    assert "quadruped_default" in names and "test_minimal" in names
+    for name in names:
+        assert isinstance(load_scenario(name), Scenario)
+
+
+def test_quadruped_default_content():
+    sc = load_scenario("quadruped_default")
+    assert sc.robot.kind == "quadruped" and sc.robot.position == (0.0, 0.0) and sc.robot.yaw == 0.0
+    assert 6.0 <= math.dist(sc.goal.position, sc.robot.position) <= 8.0
+    static = [o for o in sc.obstacles if o.motion.type == "static"]
+    moving = [o for o in sc.obstacles if o.motion.type != "static"]
+    assert static and moving
+    for obs in sc.obstacles:  # between start and goal along x
+        assert 0.0 < obs.position[0] < sc.goal.position[0]
+    assert sc.planner.mode == "goal"
+
+
+def test_lookup_by_path(tmp_path):
+    path = tmp_path / "mine.yaml"
+    path.write_text(yaml.safe_dump(BASE))
+    sc = load_scenario(str(path))
+    assert sc.name == "mine" and sc.source == str(path.resolve())
+    assert [o.id for o in sc.obstacles] == ["a", "b"]
+    # Vertical obstacles stand on the ground by default.
+    assert sc.obstacles[0].position[2] == pytest.approx(sc.obstacles[0].extent / 2)
+
+
+def test_unknown_name_lists_known():
+    with pytest.raises(ScenarioError, match="quadruped_default"):
+        resolve_scenario("no_such_scenario")
+
+
+@pytest.mark.parametrize(
+    ("path", "value", "message"),
+    [
+        ("obstacles.1.semi_axes", [0.2, -1.0], AXES_MESSAGE),
+        ("obstacles.1.semi_axes", [0.2], AXES_MESSAGE),
+        ("obstacles.0.plane", "diagonal",
+         "obstacles[0].plane: must be one of vertical, horizontal"),
+        ("obstacles.0.colour", [1, 0, 0], "obstacles[0].colour: unknown field"),
+        ("obstacles.1.motion", {"type": "waypoints", "waypoints": [[2.0, 1.0]]},
+         "obstacles[1].motion.speed: is required"),
+        ("obstacles.1.motion", {"type": "waypoints", "speed": 1.0, "waypoints": [[2.0, -1.0]]},
+         "obstacles[1].motion.waypoints[0]: must differ"),
+        ("obstacles.1.motion", {"type": "constant_velocity"},
+         "obstacles[1].motion.velocity: is required"),
+        ("obstacles.1.id", "a", "obstacles[1].id: duplicate id"),
+        ("duration", -3, "duration: must be a positive number"),
+        ("robot.kind", "hexapod", "robot.kind: must be one of"),
+        ("perception.dropout_probability", 1.5, "perception.dropout_probability: must be <= 1"),
+        ("perception.position_noise_std", [0.1, 0.1],
+         "perception.position_noise_std: must be a number or a list of 3"),
+        ("planner.mode", "teleport", "planner.mode: must be one of goal, constant_velocity"),
+        ("filter", {"gamma": {"nested": 1}}, "filter.gamma: must be a number"),
+        ("speling", 1, "speling: unknown field"),
+    ],
+)
+def test_bad_fields_are_named(tmp_path, path, value, message):
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(_with(path, value))
+    assert message in str(err.value)
+    # From a file the message starts with the file path.
+    file = tmp_path / "bad.yaml"
+    file.write_text(yaml.safe_dump(_with(path, value)))
+    with pytest.raises(ScenarioError) as err:
+        load_scenario(str(file))
+    assert str(err.value).startswith(str(file.resolve())) and message in str(err.value)
+
+
+def test_not_yaml(tmp_path):
+    file = tmp_path / "broken.yaml"
+    file.write_text("robot: [unclosed\n")
+    with pytest.raises(ScenarioError, match="cannot read scenario"):
+        load_scenario(str(file))
+
+
+def test_planner_and_overrides():
+    data = _with("planner", {"mode": "constant_velocity", "velocity": [0.3, 0.0], "lookahead": 1.5})
+    data["filter"] = {"enabled": False, "gamma": 2.0}
+    sc = parse_scenario(data)
+    assert sc.planner.velocity == (0.3, 0.0, 0.0, 0.0)
+    assert sc.planner.params == {"lookahead": 1.5}
+    assert sc.filter_overrides == {"enabled": False, "gamma": 2.0}
+    with pytest.raises(ScenarioError, match="planner.velocity: is required"):
+        parse_scenario(_with("planner", {"mode": "constant_velocity"}))
+
+
+def test_horizontal_bar_needs_height():
+    data = _with("obstacles.0", {"id": "bar", "plane": "horizontal", "position": [1.0, 0.0],
+                                 "semi_axes": [0.05, 0.05]})
+    with pytest.raises(ScenarioError, match=r"obstacles\[0\].position: must be \[x, y, z\]"):
+        parse_scenario(data)
+    data["obstacles"][0]["position"] = [1.0, 0.0, 0.4]
+    bar = parse_scenario(data).obstacles[0]
+    assert bar.plane == "horizontal" and bar.position == (1.0, 0.0, 0.4)
+
+
+def test_documented_example_is_valid():
+    doc = (Path(__file__).resolve().parents[1] / "doc" / "scenario_format.md").read_text()
+    section = doc.split("## Complete example", 1)[1]
+    block = section.split("```yaml", 1)[1].split("```", 1)[0]
+    sc = parse_scenario(yaml.safe_load(block))
+    assert [o.id for o in sc.obstacles] == ["pillar", "walker", "cart", "bar"]
+    assert sc.obstacles[3].plane == "horizontal" and sc.filter_overrides == {"gamma": 1.0}
