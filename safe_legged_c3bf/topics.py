@@ -48,11 +48,17 @@ CLOCK = Topic(
 )
 ODOM = Topic(
     "/odom", "nav_msgs/msg/Odometry", "simulator",
-    "base pose in odom, twist in base_link (REP-105 odom -> base_link)", depth=5,
+    "base pose in odom, twist in base_link (REP-105 odom -> base_link), 100 Hz", depth=5,
+)
+IMU = Topic(
+    "/imu", "sensor_msgs/msg/Imu", "simulator",
+    "base orientation, angular velocity and acceleration (base_link), at the control rate",
+    depth=5,
 )
 JOINT_STATES = Topic(
     "/joint_states", "sensor_msgs/msg/JointState", "simulator",
-    "joint positions (rad), velocities (rad/s) and torques (N m)", depth=5,
+    "joint positions (rad), velocities (rad/s) and torques (N m), at the control rate",
+    depth=5,
 )
 JOINT_COMMANDS = Topic(
     "/joint_commands", "safe_legged_c3bf_msgs/msg/MotorCommand", "gait_controller",
@@ -100,9 +106,9 @@ GROUND_TRUTH_OBSTACLES = Topic(
 )
 
 CONTRACT: tuple[Topic, ...] = (
-    CLOCK, ODOM, JOINT_STATES, JOINT_COMMANDS, OBSTACLE_DETECTIONS, OBSTACLES, OBSTACLE_MARKERS,
-    GOAL_POSE, CMD_VEL, CMD_VEL_SAFE, FILTER_STATE, DIAGNOSTICS, GROUND_TRUTH_SAFETY,
-    GROUND_TRUTH_OBSTACLES,
+    CLOCK, ODOM, IMU, JOINT_STATES, JOINT_COMMANDS, OBSTACLE_DETECTIONS, OBSTACLES,
+    OBSTACLE_MARKERS, GOAL_POSE, CMD_VEL, CMD_VEL_SAFE, FILTER_STATE, DIAGNOSTICS,
+    GROUND_TRUTH_SAFETY, GROUND_TRUTH_OBSTACLES,
 )
 
 #: Frame names (REP-105).

@@ -1,11 +1,13 @@
 """Gait controller node: /cmd_vel_safe + /odom + /joint_states -> /joint_commands.
 
 Hosts any :class:`~safe_legged_c3bf.gait_controller.GaitController` (the A1 convex-MPC trot or
-the biped ZMP walk, chosen by the ``robot`` parameter). It ticks on incoming robot state: when
-/odom and /joint_states of one stamp have both arrived and at least ``control_period`` has
-passed since the last tick, it runs the controller and publishes a MotorCommand stamped with
-that state's time. No /cmd_vel_safe for ``command_timeout`` seconds (sim time) -> the command
-becomes zero and the robot stops and stands.
+the biped ZMP walk, chosen by the ``robot`` parameter). As on a real robot, it runs on the
+high-rate sensors: it ticks when /imu and /joint_states of one stamp have both arrived and at
+least ``control_period`` has passed since the last tick. The base state combines the IMU
+(orientation, angular velocity) with the latest /odom (position and velocity, which arrive at
+a navigation rate), its position extrapolated to the tick. Each MotorCommand is stamped with
+the state it was computed from. No /cmd_vel_safe for ``command_timeout`` seconds (sim time)
+-> the command becomes zero and the robot stops and stands.
 """
 
 from __future__ import annotations
@@ -18,9 +20,10 @@ from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
-from sensor_msgs.msg import JointState
+from sensor_msgs.msg import Imu, JointState
 
 from safe_legged_c3bf import topics
+from safe_legged_c3bf.base_state import BaseState
 from safe_legged_c3bf.controllers import make_gait_controller
 from safe_legged_c3bf.gait_controller import VelocityCommand
 from safe_legged_c3bf.nodes import ros_common
@@ -49,7 +52,8 @@ class GaitControllerNode(Node):
 
         self._names_index: np.ndarray | None = None
         self._names_key: tuple[str, ...] = ()
-        self._odom: Odometry | None = None
+        self._odom: BaseState | None = None
+        self._imu: Imu | None = None
         self._joints: JointState | None = None
         self._last_tick: float | None = None
         self._last_processed_stamp = -math.inf
@@ -74,6 +78,7 @@ class GaitControllerNode(Node):
             JointState, topics.JOINT_STATES.name, self._on_joints,
             ros_common.qos(topics.JOINT_STATES),
         )
+        self.create_subscription(Imu, topics.IMU.name, self._on_imu, ros_common.qos(topics.IMU))
         self.create_subscription(
             Twist, topics.CMD_VEL_SAFE.name, self._on_cmd, ros_common.qos(topics.CMD_VEL_SAFE)
         )
@@ -101,7 +106,7 @@ class GaitControllerNode(Node):
 
     # -- inputs -----------------------------------------------------------------------------
     def _state_time(self) -> float | None:
-        return None if self._odom is None else ros_common.from_time_msg(self._odom.header.stamp)
+        return None if self._imu is None else ros_common.from_time_msg(self._imu.header.stamp)
 
     def _on_cmd(self, msg: Twist) -> None:
         if not ros_common.twist_is_finite(msg):
@@ -115,7 +120,16 @@ class GaitControllerNode(Node):
         if not ros_common.odometry_is_finite(msg):
             self._dropped += 1
             return
-        self._odom = msg
+        self._odom = ros_common.odometry_to_base_state(msg)
+
+    def _on_imu(self, msg: Imu) -> None:
+        o, w = msg.orientation, msg.angular_velocity
+        if not all(math.isfinite(v) for v in (o.x, o.y, o.z, o.w, w.x, w.y, w.z)) or not (
+            o.x * o.x + o.y * o.y + o.z * o.z + o.w * o.w > 1e-6
+        ):
+            self._dropped += 1
+            return
+        self._imu = msg
         self._maybe_tick()
 
     def _on_joints(self, msg: JointState) -> None:
@@ -126,6 +140,21 @@ class GaitControllerNode(Node):
             return
         self._joints = msg
         self._maybe_tick()
+
+    def _base_state(self, t: float) -> BaseState:
+        """Base state at ``t``: IMU attitude and rates, odometry position and velocity."""
+        imu, odom = self._imu, self._odom
+        o, w = imu.orientation, imu.angular_velocity
+        state = BaseState(
+            position=odom.position,
+            orientation=(o.x, o.y, o.z, o.w),
+            angular_velocity=(w.x, w.y, w.z),
+            stamp=t,
+        )
+        v_world = odom.linear_velocity_world
+        state.position = odom.position + v_world * max(0.0, t - odom.stamp)
+        state.linear_velocity = state.rotation.T @ v_world
+        return state
 
     # -- control ----------------------------------------------------------------------------
     def _joint_vectors(self, msg: JointState) -> tuple[np.ndarray, np.ndarray]:
@@ -153,9 +182,9 @@ class GaitControllerNode(Node):
         return VelocityCommand() if stale else self._command
 
     def _maybe_tick(self) -> None:
-        if self._odom is None or self._joints is None:
+        if self._imu is None or self._joints is None or self._odom is None:
             return
-        t = ros_common.from_time_msg(self._odom.header.stamp)
+        t = ros_common.from_time_msg(self._imu.header.stamp)
         if ros_common.from_time_msg(self._joints.header.stamp) != t:
             return  # wait for the matching half of this state
         if t <= self._last_processed_stamp:
@@ -168,7 +197,7 @@ class GaitControllerNode(Node):
         except KeyError as err:
             self.get_logger().error(str(err), throttle_duration_sec=5.0)
             return
-        base = ros_common.odometry_to_base_state(self._odom)
+        base = self._base_state(t)
         start = time.perf_counter()
         cmd = self.controller.update(t, base, q, dq, self._active_command(t))
         self._tick_wall += time.perf_counter() - start
@@ -180,7 +209,7 @@ class GaitControllerNode(Node):
             self.get_logger().error("controller produced a non-finite command; not sent")
             return
         msg = MotorCommand()
-        msg.header.stamp = self._odom.header.stamp
+        msg.header.stamp = self._imu.header.stamp
         msg.header.frame_id = topics.BASE_FRAME
         msg.name = list(cmd.names)
         msg.q, msg.dq, msg.kp, msg.kd, msg.tau = (

@@ -15,7 +15,8 @@ A thin wrapper around :class:`safe_legged_c3bf.sim.world.Simulation`:
   wall timer: at the 500 Hz of states and commands, rclpy's executor costs more CPU per
   wake-up than a physics step, and commands keep reaching the drivers when a shared executor
   is busy.
-* publishes in sim time ``/odom`` and ``/joint_states`` (every state period), ``/clock``
+* publishes in sim time ``/imu`` and ``/joint_states`` (every state period), ``/odom`` (at
+  ``odom_rate``), ``/clock``
   (every 1 / ``clock_rate``, stamped like the state published with it),
   ``/obstacles/detections`` (noisy, no velocities), ``/ground_truth/safety`` and
   ``/ground_truth/obstacles``, and ``/diagnostics`` (motor driver mode, rejected commands,
@@ -60,6 +61,7 @@ import traceback
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor
@@ -69,9 +71,10 @@ from rclpy.guard_condition import GuardCondition
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock as ClockMsg
-from sensor_msgs.msg import JointState
+from sensor_msgs.msg import Imu, JointState
 
 from safe_legged_c3bf import topics
+from safe_legged_c3bf.base_state import quaternion_to_matrix
 from safe_legged_c3bf.nodes.ros_common import diagnostic_status, qos, run_node, to_time_msg
 from safe_legged_c3bf.sim.motor_driver import DriverMode
 from safe_legged_c3bf.sim.obstacles import ObstacleState
@@ -85,8 +88,11 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
     "seed": (-1, "random seed; -1 = the scenario's seed"),
     "gui": (False, "open the PyBullet GUI instead of running headless (DIRECT)"),
     "physics_rate": (1000.0, "physics steps per sim second (Hz)"),
-    "state_rate": (500.0, "/odom and /joint_states rate (Hz, sim time); lockstep period"),
-    "clock_rate": (250.0, "/clock rate (Hz, sim time, at most state_rate): the resolution of "
+    "state_rate": (250.0, "/imu and /joint_states rate (Hz, sim time): the control rate and "
+                   "the lockstep period"),
+    "odom_rate": (100.0, "/odom rate (Hz, sim time, at most state_rate): navigation nodes "
+                  "need no more, and each subscriber pays per message"),
+    "clock_rate": (100.0, "/clock rate (Hz, sim time, at most state_rate): the resolution of "
                    "the other nodes' sim-time clocks"),
     "ground_truth_rate": (50.0, "/ground_truth/* rate (Hz, sim time)"),
     "detection_rate": (0.0, "/obstacles/detections rate (Hz, sim time); 0 = scenario's rate"),
@@ -165,6 +171,10 @@ class SimulatorNode(Node):
             self._state_every,
             self._state_every * round(float(p["state_rate"]) / float(p["clock_rate"])),
         )
+        self._odom_every = max(
+            self._state_every,
+            self._state_every * round(float(p["state_rate"]) / float(p["odom_rate"])),
+        )
         self._gt_every = max(1, round(rate / float(p["ground_truth_rate"])))
         self._det_every = max(1, round(rate / detection_rate))
         self._max_lag = float(p["max_lag"])
@@ -180,6 +190,7 @@ class SimulatorNode(Node):
 
         self._pub_clock = publisher(ClockMsg, topics.CLOCK)
         self._pub_odom = publisher(Odometry, topics.ODOM)
+        self._pub_imu = publisher(Imu, topics.IMU)
         self._pub_joints = publisher(JointState, topics.JOINT_STATES)
         self._pub_detections = publisher(ObstacleArray, topics.OBSTACLE_DETECTIONS)
         self._pub_gt_safety = publisher(GroundTruthSafety, topics.GROUND_TRUTH_SAFETY)
@@ -215,6 +226,9 @@ class SimulatorNode(Node):
         self._odom.child_frame_id = topics.BASE_FRAME
         self._joints = JointState()
         self._joints.name = sim.joint_names
+        self._imu = Imu()
+        self._imu.header.frame_id = topics.BASE_FRAME
+        self._last_world_velocity: tuple[float, np.ndarray] | None = None
 
         self._gt_obstacles: ObstacleArray | None = None
         self._moving = [i for i, o in enumerate(sim.obstacles) if o.moving]
@@ -336,8 +350,8 @@ class SimulatorNode(Node):
 
     @staticmethod
     def _check_parameters(p: dict[str, Any]) -> None:
-        positive = ("physics_rate", "state_rate", "clock_rate", "ground_truth_rate", "max_lag",
-                    "command_timeout", "lockstep_timeout", "diagnostics_period")
+        positive = ("physics_rate", "state_rate", "odom_rate", "clock_rate", "ground_truth_rate",
+                    "max_lag", "command_timeout", "lockstep_timeout", "diagnostics_period")
         for name in positive:
             if not float(p[name]) > 0:
                 raise ValueError(f"parameter {name} must be > 0, got {p[name]!r}")
@@ -515,16 +529,18 @@ class SimulatorNode(Node):
         if sim.step_count % self._clock_every == 0 or self._waiting:
             self._pub_clock.publish(ClockMsg(clock=stamp))
         position, orientation, linear, angular = sim.base_pose_twist()
-        odom = self._odom
-        odom.header.stamp = stamp
-        pose, twist = odom.pose.pose, odom.twist.twist
-        pose.position.x, pose.position.y, pose.position.z = position
-        (
-            pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w
-        ) = orientation
-        twist.linear.x, twist.linear.y, twist.linear.z = linear
-        twist.angular.x, twist.angular.y, twist.angular.z = angular
-        self._pub_odom.publish(odom)
+        if sim.step_count % self._odom_every == 0 or self._waiting:
+            odom = self._odom
+            odom.header.stamp = stamp
+            pose, twist = odom.pose.pose, odom.twist.twist
+            pose.position.x, pose.position.y, pose.position.z = position
+            (
+                pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w
+            ) = orientation
+            twist.linear.x, twist.linear.y, twist.linear.z = linear
+            twist.angular.x, twist.angular.y, twist.angular.z = angular
+            self._pub_odom.publish(odom)
+        self._publish_imu(stamp, orientation, linear, angular)
         q, dq, tau = sim.joint_lists()
         msg = self._joints
         msg.header.stamp = stamp
@@ -533,6 +549,26 @@ class SimulatorNode(Node):
         msg.velocity = array.array("d", dq)
         msg.effort = array.array("d", tau)
         self._pub_joints.publish(msg)
+
+    def _publish_imu(self, stamp: Any, orientation, linear, angular) -> None:  # noqa: ANN001
+        """/imu: orientation, angular velocity and specific force, in base_link."""
+        imu = self._imu
+        imu.header.stamp = stamp
+        o = imu.orientation
+        o.x, o.y, o.z, o.w = orientation
+        imu.angular_velocity.x, imu.angular_velocity.y, imu.angular_velocity.z = angular
+        rot = quaternion_to_matrix(np.asarray(orientation))
+        v_world = rot @ np.asarray(linear, dtype=float)
+        t = self._sim.time
+        accel_world = np.zeros(3)
+        if self._last_world_velocity is not None and t > self._last_world_velocity[0]:
+            accel_world = (v_world - self._last_world_velocity[1]) / (
+                t - self._last_world_velocity[0]
+            )
+        self._last_world_velocity = (t, v_world)
+        f = rot.T @ (accel_world + np.array([0.0, 0.0, self._sim.scenario.physics.gravity]))
+        imu.linear_acceleration.x, imu.linear_acceleration.y, imu.linear_acceleration.z = f
+        self._pub_imu.publish(imu)
 
     def _obstacle_array(self, states: list[ObstacleState]) -> ObstacleArray:
         msg = ObstacleArray()
