@@ -96,9 +96,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="write the simulator's follow-camera video (headless)")
     p.add_argument("--video-fps", type=float, default=10.0, metavar="FPS",
                    help="video frames per simulated second (default 10)")
-    p.add_argument("--lockstep", action="store_true",
-                   help="simulator waits for the gait controller's command of every state "
-                   "(no falls from a starved controller; deterministic physics)")
+    p.add_argument("--lockstep", action=argparse.BooleanOptionalAction, default=True,
+                   help="the simulator waits for the gait controller's command of every state "
+                   "(default: on, so a slow machine slows the run down instead of starving "
+                   "the controller and dropping the robot; --no-lockstep paces physics by "
+                   "the wall clock alone)")
     p.add_argument("--real-time-factor", type=float, metavar="X",
                    help="simulator pacing: sim seconds per wall second (0 = as fast as "
                    "possible; default the simulator's, 1)")
@@ -239,8 +241,7 @@ def make_plan(opts: argparse.Namespace) -> RunPlan:
         scenario=str(scenario_file), gui=bool(opts.gui),
         summary_path=str(run_dir / "simulator_summary.json"),
     )
-    if opts.lockstep:
-        params["simulator"]["lockstep"] = True
+    params["simulator"]["lockstep"] = bool(opts.lockstep)
     if opts.real_time_factor is not None:
         if not opts.real_time_factor >= 0:
             raise StartupError("--real-time-factor must be >= 0")

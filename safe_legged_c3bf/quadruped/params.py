@@ -88,7 +88,7 @@ class QuadrupedParams:
 
     """
 
-    control_period: float = 0.002
+    control_period: float = 0.004
     mpc_dt: float = 0.03
     mpc_horizon: int = 10
     mpc_period: float = 0.015
