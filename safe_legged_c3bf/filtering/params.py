@@ -20,9 +20,13 @@ class FilterParams:
     Attributes:
         enabled: False = pass-through (baseline runs), flagged PASS_THROUGH.
         model: 'unicycle' (the paper's, with body-point offset ``offset``) or 'holonomic'.
-        offset: body-point offset l ahead of the robot's centre (m), unicycle only.
+        offset: body-point offset l ahead of the robot's centre (m), unicycle only: larger
+            gives more steering authority but a larger circle to enclose the robot.
         gamma: class-K gain in Lf h + Lg h u + gamma h >= 0 (1/s); the paper uses 1.
-        robot_width: robot width w (m); vertical obstacles grow by w/2.
+        robot_width: w in the paper's r = max(c1, c2) + w/2 (m): the diameter of the circle
+            around the body point that encloses the robot's footprint (legs included). For a
+            long robot this is its circumscribed diameter, not its narrow width: a circle of
+            half the width would leave the rear exposed to crossing obstacles.
         robot_height: robot body height (m); horizontal obstacles grow by robot_height/2.
         safety_margin: extra inflation of every obstacle radius (m).
         rate: filter cycles per second (Hz) of sim time.
@@ -53,9 +57,9 @@ class FilterParams:
 
     enabled: bool = True
     model: str = "unicycle"
-    offset: float = 0.25
+    offset: float = 0.10
     gamma: float = 1.0
-    robot_width: float = 0.30
+    robot_width: float = 0.82
     robot_height: float = 0.12
     safety_margin: float = 0.05
     rate: float = 50.0
