@@ -180,6 +180,25 @@ def _config_file(node_name: str) -> list[Path]:
     return [path] if path.is_file() else []
 
 
+def _robot_profile(kind: str) -> dict[str, dict[str, Any]]:
+    """Per-robot node parameters from config/robots/<kind>.yaml (node name -> values)."""
+    from safe_legged_c3bf.config import config_path, load_yaml
+
+    kind = "quadruped" if kind == "a1" else kind
+    try:
+        profile = load_yaml(config_path("robots", f"{kind}.yaml"))
+    except FileNotFoundError:
+        return {}
+    nodes = {name for name, _ in GRAPH_NODES}
+    for node_name, values in profile.items():
+        if node_name not in nodes or not isinstance(values, dict):
+            raise StartupError(
+                f"config/robots/{kind}.yaml: '{node_name}' must be one of {sorted(nodes)} "
+                "with a mapping of parameters"
+            )
+    return profile
+
+
 @contextlib.contextmanager
 def _quiet_stderr():
     """Silence C-level prints to fd 2 (pybullet prints its build time when imported)."""
@@ -257,6 +276,8 @@ def make_plan(opts: argparse.Namespace) -> RunPlan:
     params["reference_planner"]["scenario"] = str(scenario_file)  # goal + planner section
     params["safety_filter"]["enabled"] = not opts.no_filter
     params["gait_controller"]["robot"] = scenario.robot.kind
+    for node_name, values in _robot_profile(scenario.robot.kind).items():
+        params[node_name].update(values)
     for section, values in scenario.overrides.items():
         target = OVERRIDE_TARGETS.get(section)
         if target:
