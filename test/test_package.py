@@ -100,3 +100,11 @@ def test_ruff_is_clean():
         text=True,
     )
     assert out.returncode == 0, out.stdout + out.stderr
+
+
+def test_readme_library_example_runs(capsys):
+    readme = (REPO / "README.md").read_text()
+    code = readme.split("```python", 1)[1].split("```", 1)[0]
+    exec(compile(code, "README.md", "exec"), {})  # noqa: S102 - our own documentation
+    status = capsys.readouterr().out.split()[0]
+    assert status in {"inactive", "active", "relaxed"}
