@@ -40,8 +40,8 @@ class Probe:
             ("gt_obstacles", topics.GROUND_TRUTH_OBSTACLES, ObstacleArray),
             ("diag", topics.DIAGNOSTICS, DiagnosticArray),
         ):
-            callback = self._on_odom if key == "odom" else self.msgs[key].append
-            self.node.create_subscription(cls, topic.name, callback, qos(topic) if key != "odom"
+            callback = self._on_joints if key == "joints" else self.msgs[key].append
+            self.node.create_subscription(cls, topic.name, callback, qos(topic) if key != "joints"
                                           else 50)
         self.pub = self.node.create_publisher(
             MotorCommand, topics.JOINT_COMMANDS.name, qos(topics.JOINT_COMMANDS)
@@ -60,13 +60,14 @@ class Probe:
         msg.header.stamp = stamp
         return msg
 
-    def _on_odom(self, msg: Odometry) -> None:
-        self.msgs["odom"].append(msg)
+    def _on_joints(self, msg: JointState) -> None:
+        """Answer every state (joint states come with each one), like the gait controller."""
+        self.msgs["joints"].append(msg)
         stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
         if self.answer and stamp > self.answered:  # one command per state, like a controller
             self.answered = stamp
             # The command depends on the state, so any timing dependence would show.
-            self.pub.publish(self.command(msg.header.stamp, 0.2 * msg.pose.pose.position.z))
+            self.pub.publish(self.command(msg.header.stamp, 0.2 * msg.position[2]))
 
 
 def make_node(executor, **params) -> SimulatorNode:
@@ -167,7 +168,7 @@ def test_lockstep_runs_are_identical(ros_executor, tmp_path):
     for run in runs:
         summary = run["summary"]
         assert summary["finished"] and summary["lockstep_timeouts"] == 0
-        assert summary["commands_received"] == 150  # one per 2 ms state period
+        assert summary["commands_received"] == 75  # one per 4 ms state period
     assert runs[0]["position"] == runs[1]["position"]
     assert runs[0]["joints"] == runs[1]["joints"]
     assert runs[0]["detections"] == runs[1]["detections"] and runs[0]["detections"]
