@@ -1,0 +1,338 @@
+"""Scenario suites with and without the safety filter: ``python -m safe_legged_c3bf.evaluate``.
+
+Every scenario of a suite runs three times through the bringup (each run its own process
+group and private ROS domain, ``--jobs`` at a time): with the filter, without it
+(``--no-filter``: does the scenario really threaten a collision?) and with the filter on the
+same scenario without obstacles (the reference for the time-to-goal overhead). The results
+(one row per run, classified: ok, collided, fell, goal_not_reached, node_died, ...) are
+aggregated per robot, per scenario kind and per scenario into ``results.md``, ``results.csv``,
+``summary.csv`` and ``figures/`` in ``--out``.
+
+Suites: ``paper`` (the paper's five experiments), ``named`` (every evaluation scenario in
+config/scenarios), ``random-quadruped`` / ``random-biped`` (``--seeds`` random scenarios from
+:mod:`safe_legged_c3bf.evaluation.random_scenario`), ``all`` (named and both random suites),
+``ci`` (one short quadruped run with the filter only).
+
+Exit codes: 0 every run was executed (collisions, falls and dead nodes are results, in the
+tables); 1 some run could not be executed (start-up failure, no report) or nothing ran;
+2 bad arguments; 130 / 143 interrupted (the tables of the finished runs are still written).
+See doc/evaluation.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import math
+import os
+import signal
+import sys
+import time
+from dataclasses import dataclass
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from safe_legged_c3bf.evaluation.results import RUN_COLUMNS, attach_overhead, write_csv
+from safe_legged_c3bf.evaluation.results import write_results as _write_results
+from safe_legged_c3bf.evaluation.runner import Runner, RunSpec
+
+#: Evaluation scenarios in config/scenarios: name -> kind (robot comes from the file).
+PAPER_SCENARIOS = {
+    "quadruped_static": "static",
+    "quadruped_moving": "moving",
+    "quadruped_horizontal": "horizontal",
+    "biped_static": "static",
+    "biped_moving": "moving",
+}
+NAMED_SCENARIOS = PAPER_SCENARIOS | {
+    "quadruped_multi": "multi",
+    "quadruped_head_on": "head_on",
+    "quadruped_crossing": "crossing",
+    "quadruped_bar_and_pillar": "bar_and_pillar",
+}
+CI_SCENARIO = "quadruped_ci"
+SUITES = ("paper", "named", "random-quadruped", "random-biped", "all", "ci")
+DEFAULT_RANDOM_SEEDS = 5
+EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
+
+
+@dataclass
+class Case:
+    """One scenario (and seed) of a suite, before it is split into runs."""
+
+    case: str
+    scenario: str  # name or path
+    robot: str
+    kind: str
+    duration: float
+    raw: dict[str, Any]  # the scenario mapping (to derive the obstacle-free variant)
+    seed: int | None = None
+    baseline: bool = True  # also run without the filter
+    free: bool = True  # also run without obstacles
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command line."""
+    p = argparse.ArgumentParser(
+        prog="python -m safe_legged_c3bf.evaluate",
+        description="Run scenario suites with and without the C3BF safety filter and "
+        "tabulate collisions, goals, clearances, overheads and solve times.",
+        epilog="Exit codes: 0 all runs executed (failures are in the tables), 1 some run "
+        "could not be executed, 2 bad arguments, 130/143 interrupted. See doc/evaluation.md.",
+    )
+    p.add_argument("--suite", choices=SUITES, default="paper",
+                   help="which scenarios (default paper)")
+    p.add_argument("--scenario", action="append", default=[], metavar="NAME|PATH",
+                   help="run this scenario instead of a suite (repeatable)")
+    p.add_argument("--seeds", type=int, metavar="N",
+                   help=f"random suites: number of random scenarios (default "
+                   f"{DEFAULT_RANDOM_SEEDS}); named scenarios: perception seeds per scenario "
+                   "(default 1: the scenario's own seed)")
+    p.add_argument("--seed-start", type=int, default=0, metavar="S",
+                   help="first random-scenario seed (default 0)")
+    p.add_argument("--jobs", "-j", type=int, default=2, metavar="N",
+                   help="bringups at once (default 2; each is 5-6 busy processes)")
+    p.add_argument("--out", type=Path, metavar="DIR",
+                   help="output folder (default runs/evaluation-<suite>-<timestamp>)")
+    p.add_argument("--in-process", action="store_true",
+                   help="run each bringup with --in-process (all nodes in one process)")
+    p.add_argument("--no-baseline", action="store_true", help="skip the runs without filter")
+    p.add_argument("--no-free", action="store_true",
+                   help="skip the obstacle-free reference runs (no time-to-goal overhead)")
+    p.add_argument("--duration", type=float, metavar="S",
+                   help="override every scenario's duration (sim seconds)")
+    p.add_argument("--dry-run", action="store_true", help="list the runs and exit")
+    p.add_argument("--no-figures", action="store_true", help="tables only")
+    return p
+
+
+# ------------------------------------------------------------------------------ planning
+
+
+def _load_raw(name_or_path: str) -> tuple[Path, dict[str, Any]]:
+    from safe_legged_c3bf.sim.scenario import load_scenario, resolve_scenario
+
+    path = resolve_scenario(name_or_path)
+    load_scenario(path)  # validate (ScenarioError names the field)
+    raw = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+    raw.setdefault("name", path.stem)
+    return path, raw
+
+
+def _named_cases(items: dict[str, str], seeds: int | None) -> list[Case]:
+    """Cases of scenarios given by name or path (-> kind), ``seeds`` perception seeds each."""
+    cases = []
+    for item, kind in items.items():
+        path, raw = _load_raw(item)
+        name = str(raw.get("name", path.stem))
+        robot = _robot_kind(raw)
+        duration = float(raw.get("duration", 30.0))
+        if not seeds or seeds <= 1:
+            cases.append(Case(name, item, robot, kind, duration, raw))
+            continue
+        base = int(raw.get("seed", 0))
+        for k in range(seeds):
+            cases.append(Case(f"{name}@seed{base + k}", item, robot, kind, duration, raw,
+                              seed=base + k))
+    names = [c.case for c in cases]
+    duplicates = sorted({n for n in names if names.count(n) > 1})
+    if duplicates:
+        from safe_legged_c3bf.sim.scenario import ScenarioError
+
+        raise ScenarioError(f"scenario names given twice: {', '.join(duplicates)}")
+    return cases
+
+
+def _robot_kind(raw: dict[str, Any]) -> str:
+    from safe_legged_c3bf.sim.scenario import parse_scenario
+
+    return parse_scenario(raw, name=str(raw.get("name", "scenario"))).robot.kind
+
+
+def _random_cases(robot: str, seeds: int, start: int, out: Path) -> list[Case]:
+    from safe_legged_c3bf.evaluation import random_scenario as rs
+
+    cases = []
+    for seed in range(start, start + seeds):
+        data = rs.generate_scenario(robot, seed)
+        path = rs.write_scenario(out / "scenarios" / f"{data['name']}.yaml", data)
+        cases.append(Case(data["name"], str(path), robot, f"random_{robot}",
+                          float(data["duration"]), data))
+    return cases
+
+
+def plan_cases(opts: argparse.Namespace, out: Path) -> list[Case]:
+    """The cases of the requested suite (or --scenario list)."""
+    if opts.scenario:
+        items = {}
+        for item in opts.scenario:
+            stem = Path(item).stem if item.endswith((".yaml", ".yml")) else item
+            items[item] = (NAMED_SCENARIOS | {CI_SCENARIO: "static"}).get(stem, "custom")
+        return _named_cases(items, opts.seeds)
+    suite = opts.suite
+    n_random = opts.seeds if opts.seeds is not None else DEFAULT_RANDOM_SEEDS
+    if suite == "ci":
+        path, raw = _load_raw(CI_SCENARIO)
+        return [Case(CI_SCENARIO, CI_SCENARIO, _robot_kind(raw), "static",
+                     float(raw.get("duration", 15.0)), raw, baseline=False, free=False)]
+    if suite == "paper":
+        return _named_cases(PAPER_SCENARIOS, opts.seeds)
+    if suite == "named":
+        return _named_cases(NAMED_SCENARIOS, opts.seeds)
+    if suite == "random-quadruped":
+        return _random_cases("quadruped", n_random, opts.seed_start, out)
+    if suite == "random-biped":
+        return _random_cases("biped", n_random, opts.seed_start, out)
+    # all
+    return (_named_cases(NAMED_SCENARIOS, None)
+            + _random_cases("quadruped", n_random, opts.seed_start, out)
+            + _random_cases("biped", n_random, opts.seed_start, out))
+
+
+def plan_runs(cases: list[Case], opts: argparse.Namespace, out: Path, suite: str) -> list:
+    """RunSpecs (filter on, filter off, obstacle-free) of every case, in run order."""
+    from safe_legged_c3bf.evaluation import random_scenario as rs
+
+    specs: list[RunSpec] = []
+    for c in cases:
+        common = dict(case=c.case, robot=c.robot, kind=c.kind, suite=suite, seed=c.seed,
+                      duration=opts.duration)
+        specs.append(RunSpec(run_id=f"{c.case}__filter", scenario=c.scenario,
+                             filter_enabled=True, **common))
+        if c.baseline and not opts.no_baseline:
+            specs.append(RunSpec(run_id=f"{c.case}__nofilter", scenario=c.scenario,
+                                 filter_enabled=False, **common))
+        if c.free and not opts.no_free:
+            free = rs.without_obstacles(c.raw)
+            path = rs.write_scenario(out / "scenarios" / f"{free['name']}.yaml", free)
+            specs.append(RunSpec(run_id=f"{c.case}__free", scenario=str(path),
+                                 filter_enabled=True, variant="free", **common))
+    return specs
+
+
+# ------------------------------------------------------------------------------ main
+
+
+def _sigterm(signum: int, frame) -> None:  # noqa: ANN001
+    raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def _quiet_fd2():
+    """Silence C-level prints to fd 2 (pybullet prints its build time when imported)."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "wb") as devnull:
+            os.dup2(devnull.fileno(), 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the evaluation; see the module docstring for the exit codes."""
+    opts = build_parser().parse_args(argv)
+    with _quiet_fd2():
+        from safe_legged_c3bf.sim.scenario import ScenarioError
+
+    if opts.jobs < 1 or (opts.seeds is not None and opts.seeds < 1):
+        print("evaluate: --jobs and --seeds must be >= 1", file=sys.stderr)
+        return EXIT_USAGE
+    if opts.duration is not None and not opts.duration > 0:
+        print("evaluate: --duration must be positive", file=sys.stderr)
+        return EXIT_USAGE
+    suite = "custom" if opts.scenario else opts.suite
+    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+    out = (opts.out or Path("runs") / f"evaluation-{suite}-{stamp}").resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    try:
+        cases = plan_cases(opts, out)
+        specs = plan_runs(cases, opts, out, suite)
+    except ScenarioError as err:
+        print(f"evaluate: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    durations = {s.run_id: float(opts.duration or c.duration)
+                 for c in cases for s in specs if s.case == c.case}
+    print(f"evaluate: suite {suite}: {len(cases)} scenario(s), {len(specs)} run(s), "
+          f"{opts.jobs} at a time{', in-process' if opts.in_process else ''}; output {out}",
+          flush=True)
+    sim_total = sum(durations.values())
+    print(f"evaluate: {sim_total:.0f} s of sim time in total "
+          f"(at a real-time factor of ~0.35 about {sim_total / 0.35 / opts.jobs / 60:.0f} min)",
+          flush=True)
+    if opts.dry_run:
+        for s in specs:
+            print(f"  {s.run_id}: {s.scenario} filter {'on' if s.filter_enabled else 'OFF'}"
+                  f"{' seed ' + str(s.seed) if s.seed is not None else ''}")
+        return EXIT_OK
+    if not specs:
+        print("evaluate: nothing to run", file=sys.stderr)
+        return EXIT_FAILED
+
+    done: list[dict[str, Any]] = []
+
+    def on_result(rec: dict[str, Any]) -> None:
+        done.append(rec)  # partial table while the evaluation runs
+        write_csv(out / "results.csv", attach_overhead(list(done)), RUN_COLUMNS)
+
+    previous = signal.signal(signal.SIGTERM, _sigterm)
+    runner = Runner(out, jobs=opts.jobs, in_process=opts.in_process)
+    t0 = time.monotonic()
+    interrupted = False
+    try:
+        records = runner.run(specs, durations, on_result=on_result)
+    except KeyboardInterrupt:
+        interrupted = True
+        records = list(done)
+        print("evaluate: interrupted; writing the results of the finished runs", flush=True)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    wall = time.monotonic() - t0
+    notes = [
+        f"Suite `{suite}`: {len(cases)} scenario(s), {len(records)} of {len(specs)} run(s) "
+        f"finished in {wall / 60:.1f} min wall, {opts.jobs} at a time"
+        f"{' (in-process)' if opts.in_process else ''}; "
+        f"{datetime.now().strftime('%Y-%m-%d %H:%M')}.",
+        "Command: `python -m safe_legged_c3bf.evaluate "
+        + " ".join(argv if argv is not None else sys.argv[1:]) + "`",
+    ]
+    paths = _write_results(records, out, title=f"Evaluation: {suite}", notes=notes,
+                           figures=not opts.no_figures)
+    _print_summary(records, paths)
+    if interrupted:
+        return 130
+    unexecuted = [r for r in records if r["outcome"] == "startup_failed"]
+    if unexecuted or len(records) < len(specs):
+        print(f"evaluate: {len(unexecuted)} run(s) could not be executed: "
+              + ", ".join(r["run_id"] for r in unexecuted), file=sys.stderr)
+        return EXIT_FAILED
+    return EXIT_OK
+
+
+def _print_summary(records: list[dict[str, Any]], paths: dict[str, Path]) -> None:
+    from safe_legged_c3bf.evaluation.results import aggregate
+
+    print("\nevaluate: summary (obstacle runs; rates over valid runs)")
+    for row in aggregate(records, ("robot", "filter")):
+        def pct(x: float | None) -> str:
+            return "  – " if x is None else f"{100 * x:3.0f}%"
+
+        clear = row["clearance_min"]
+        over = row["overhead_mean_s"]
+        print(f"  {row['robot']:<9} filter {row['filter']:<3}  runs {row['runs']:>3}"
+              f"  collision {pct(row['collision_rate'])}  goal {pct(row['goal_rate'])}"
+              f"  success {pct(row['success_rate'])}  min clearance "
+              f"{'–' if clear is None else f'{clear if abs(clear) >= 5e-4 else 0.0:.3f} m'}"
+              f"  overhead {'–' if over is None or not math.isfinite(over) else f'{over:+.1f} s'}"
+              f"  run failures {row['run_failures']}")
+    for key in ("markdown", "csv", "summary"):
+        print(f"  {key:<9} {paths[key]}")
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,491 @@
+"""Seeded random scenarios with obstacles in the robot's way.
+
+``generate_scenario("quadruped", seed=3)`` returns a scenario mapping (the YAML of
+``doc/scenario_format.md``) that depends only on the robot kind and the seed:
+
+* the robot starts at the origin with a random heading (yaw 0 when a bar is drawn: bars are
+  extruded along odom y) and its goal lies ``goal_distance`` m straight ahead;
+* ``obstacle_count`` obstacles get *conflict stations* along the straight start-goal line,
+  at least ``spacing`` m apart, away from the start and the goal;
+* a **static** obstacle (random ellipse, orientation, height) stands at its station with a
+  lateral offset small enough that the straight path runs through it;
+* a **moving** obstacle (``crossing`` ±90°, ``head_on`` 180° or ``oblique`` ±115-150° to the
+  path, random speed) is timed to be at its station when a robot walking the straight line
+  at ``nominal_speed`` (after ``start_delay``) gets there: it waits at its start
+  (``start_time``), walks a straight segment through the conflict point and stops
+  (``mode: stop``);
+* a **bar** (quadruped only, probability ``bar_probability``) lies across the path with its
+  underside below the standing robot's trunk top and above what a ducking robot needs; the
+  scenario then carries the same ``filter:`` and ``planner:`` overrides as
+  ``quadruped_horizontal``;
+* biped scenarios carry the biped's command range and height as ``filter:`` overrides.
+
+No obstacle ever comes near the start or the goal: the whole motion segment of every
+obstacle keeps ``start_clearance`` / ``goal_clearance`` m between the obstacle's surface and
+those points. :func:`obstacle_gaps` re-checks the "in the way" property on any scenario: the
+straight-line robot at its nominal speed meets every obstacle.
+
+``python -m safe_legged_c3bf.evaluation.random_scenario --robot biped --seed 4`` prints one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from safe_legged_c3bf.sim.scenario import ObstacleConfig, Scenario, parse_scenario
+
+ROBOTS = ("quadruped", "biped")
+MOVING_KINDS = ("crossing", "head_on", "oblique")
+#: Filter overrides of scenarios with a bar (as in config/scenarios/quadruped_horizontal.yaml).
+BAR_FILTER_OVERRIDES = {"safety_margin": 0.03, "min_height": 0.18, "max_height": 0.285}
+#: Planner overrides of scenarios with a bar: regain the height gently behind it.
+BAR_PLANNER_OVERRIDES = {"k_z": 0.3}
+#: Filter overrides of biped scenarios (as in config/scenarios/biped_static.yaml): the biped's
+#: command range (config/biped_controller.yaml) and body height instead of the A1's.
+BIPED_FILTER_OVERRIDES = {
+    "max_speed": 0.2, "max_reverse_speed": 0.1, "max_accel": 0.3, "max_yaw_rate": 0.4,
+    "max_yaw_accel": 0.8, "min_height": 0.7, "max_height": 0.9,
+}
+
+
+@dataclass(frozen=True)
+class RandomProfile:
+    """Ranges the generator draws from, per robot kind (SI units: m, s, rad, m/s).
+
+    Attributes:
+        robot: 'quadruped' or 'biped'.
+        cruise_speed: planner cruise speed (m/s).
+        nominal_speed: speed the robot actually walks at without obstacles (m/s), used to
+            time the moving obstacles (measured on obstacle-free runs).
+        start_delay: time before the robot starts to move (s).
+        goal_distance: (min, max) start-goal distance (m).
+        duration: run length (s, sim time).
+        obstacle_count: (min, max) number of obstacles (inclusive).
+        obstacle_radius: (min, max) larger semi-axis a (m).
+        aspect: (min, max) ratio b / a of the smaller semi-axis.
+        height: (min, max) height of vertical obstacles (m).
+        mover_speed: (min, max) speed of moving obstacles (m/s).
+        moving_probability: chance that an obstacle moves.
+        kind_weights: relative weights of the moving kinds (crossing, head_on, oblique).
+        bar_probability: chance that one station holds a bar instead (quadruped only).
+        half_width: half the robot's width across the path (m): a vertical obstacle is in
+            the way when the straight path passes closer than its smaller semi-axis plus this.
+        in_way_fraction: the lateral offset of a conflict point is at most this share of
+            (smaller semi-axis + half_width).
+        start_clearance: least distance (m) between any obstacle surface and the start, over
+            the obstacle's whole motion.
+        goal_clearance: the same for the goal.
+        first_station: least distance (m) from the start to a conflict station.
+        last_station: least distance (m) from a conflict station to the goal.
+        spacing: least distance (m) between two conflict stations along the path.
+        pre_travel: (min, max) distance (m) a mover walks before the conflict point.
+        post_travel: (min, max) distance (m) it walks after it before stopping.
+        random_heading: draw the robot's heading (else yaw 0).
+        trunk_top: top of the robot's body when standing (m); a bar is in the way below it.
+        bar_underside: (min, max) height of a bar's underside (m).
+        bar_radius: (min, max) radius of a bar's cross-section (m).
+        perception: the scenario's perception section.
+        filter_overrides: the scenario's ``filter:`` section (the robot's command range and
+            height when the filter's defaults, the A1's, do not fit).
+
+    """
+
+    robot: str
+    cruise_speed: float
+    nominal_speed: float
+    start_delay: float
+    goal_distance: tuple[float, float]
+    duration: float
+    obstacle_count: tuple[int, int]
+    obstacle_radius: tuple[float, float]
+    aspect: tuple[float, float]
+    height: tuple[float, float]
+    mover_speed: tuple[float, float]
+    moving_probability: float
+    kind_weights: tuple[float, float, float]
+    bar_probability: float
+    half_width: float
+    in_way_fraction: float
+    start_clearance: float
+    goal_clearance: float
+    first_station: float
+    last_station: float
+    spacing: float
+    pre_travel: tuple[float, float]
+    post_travel: tuple[float, float]
+    random_heading: bool = True
+    trunk_top: float = 0.337
+    bar_underside: tuple[float, float] = (0.295, 0.305)
+    bar_radius: tuple[float, float] = (0.04, 0.06)
+    perception: dict[str, Any] = field(default_factory=lambda: {
+        "rate": 20.0, "position_noise_std": 0.02, "size_noise_std": 0.005,
+        "dropout_probability": 0.05, "max_range": 6.0,
+    })
+    filter_overrides: dict[str, Any] = field(default_factory=dict)
+
+
+#: Default profiles. Quadruped timing measured on obstacle-free runs of the A1 at 0.4 m/s:
+#: x(t) = 0.4 (t - 0.4) m. Biped: the ZMP walker's command limit is 0.2 m/s.
+PROFILES: dict[str, RandomProfile] = {
+    "quadruped": RandomProfile(
+        robot="quadruped", cruise_speed=0.4, nominal_speed=0.4, start_delay=0.4,
+        goal_distance=(5.5, 7.0), duration=28.0, obstacle_count=(1, 3),
+        obstacle_radius=(0.18, 0.35), aspect=(0.6, 1.0), height=(0.8, 1.8),
+        mover_speed=(0.15, 0.35), moving_probability=0.5, kind_weights=(0.4, 0.3, 0.3),
+        bar_probability=0.2, half_width=0.15, in_way_fraction=0.5, start_clearance=1.0,
+        goal_clearance=1.0, first_station=2.5, last_station=1.5, spacing=1.2,
+        pre_travel=(1.5, 3.5), post_travel=(1.0, 2.0),
+    ),
+    "biped": RandomProfile(
+        robot="biped", cruise_speed=0.2, nominal_speed=0.15, start_delay=1.5,
+        goal_distance=(3.0, 4.0), duration=30.0, obstacle_count=(1, 2),
+        obstacle_radius=(0.15, 0.3), aspect=(0.6, 1.0), height=(1.0, 1.8),
+        mover_speed=(0.1, 0.2), moving_probability=0.5, kind_weights=(0.4, 0.3, 0.3),
+        bar_probability=0.0, half_width=0.15, in_way_fraction=0.5, start_clearance=0.9,
+        goal_clearance=0.9, first_station=1.5, last_station=1.2, spacing=1.0,
+        pre_travel=(1.0, 2.5), post_travel=(0.8, 1.5), trunk_top=1.1,
+        filter_overrides=dict(BIPED_FILTER_OVERRIDES),
+    ),
+}
+
+
+def profile_for(robot: str, **changes: Any) -> RandomProfile:
+    """The default profile of ``robot`` ('quadruped' / 'biped') with ``changes`` applied."""
+    if robot not in PROFILES:
+        raise ValueError(f"robot must be one of {', '.join(ROBOTS)}, got {robot!r}")
+    return replace(PROFILES[robot], **changes) if changes else PROFILES[robot]
+
+
+# ------------------------------------------------------------------------------ geometry
+
+
+def _segment_point_distance(p0: np.ndarray, p1: np.ndarray, q: np.ndarray) -> float:
+    """Distance from point ``q`` to the segment p0-p1 (2D)."""
+    d = p1 - p0
+    denom = float(d @ d)
+    u = 0.0 if denom <= 0.0 else float(np.clip((q - p0) @ d / denom, 0.0, 1.0))
+    return float(np.linalg.norm(p0 + u * d - q))
+
+
+def _r(x: float) -> float:
+    """Round to mm (the YAML stays readable; clearances are far larger)."""
+    return round(float(x), 3)
+
+
+def _xy(p: np.ndarray) -> list[float]:
+    return [_r(p[0]), _r(p[1])]
+
+
+# ------------------------------------------------------------------------------ generator
+
+
+def _stations(rng: np.random.Generator, n: int, lo: float, hi: float, spacing: float) -> list:
+    """``n`` sorted points in [lo, hi], at least ``spacing`` apart (fewer if they do not fit)."""
+    if hi < lo:
+        return []
+    n = max(0, min(n, int((hi - lo) // spacing) + 1))
+    free = (hi - lo) - (n - 1) * spacing
+    u = np.sort(rng.uniform(0.0, free, n))
+    return [lo + float(u[i]) + i * spacing for i in range(n)]
+
+
+def _static_obstacle(
+    rng, p: RandomProfile, index: int, point: np.ndarray, normal: np.ndarray,
+    start: np.ndarray, goal: np.ndarray,
+) -> dict[str, Any] | None:
+    a = rng.uniform(*p.obstacle_radius)
+    b = a * rng.uniform(*p.aspect)
+    offset = rng.uniform(-1.0, 1.0) * p.in_way_fraction * (b + p.half_width)
+    centre = point + offset * normal
+    # Keep the surface clear of the start and the goal: shrink the ellipse if needed.
+    room = min(float(np.linalg.norm(centre - start)) - p.start_clearance,
+               float(np.linalg.norm(centre - goal)) - p.goal_clearance)
+    if room < a:
+        if room < 0.1:
+            return None
+        b, a = b * room / a, room
+    return {
+        "id": f"pillar_{index}",
+        "plane": "vertical",
+        "position": _xy(centre),
+        "semi_axes": [_r(a), _r(b)],
+        "orientation": _r(rng.uniform(0.0, math.pi)),
+        "extent": _r(rng.uniform(*p.height)),
+        "color": [0.55, 0.55, 0.6, 1.0],
+        "motion": {"type": "static"},
+    }
+
+
+def _moving_obstacle(
+    rng, p: RandomProfile, index: int, station: float, point: np.ndarray,
+    tangent: np.ndarray, normal: np.ndarray, start: np.ndarray, goal: np.ndarray,
+) -> dict[str, Any] | None:
+    """A mover through the conflict point ``point`` at the robot's nominal arrival time."""
+    weights = np.asarray(p.kind_weights, dtype=float)
+    kind = MOVING_KINDS[int(rng.choice(len(MOVING_KINDS), p=weights / weights.sum()))]
+    side = 1.0 if rng.random() < 0.5 else -1.0
+    if kind == "crossing":
+        psi = side * (math.pi / 2 + rng.uniform(-0.25, 0.25))
+    elif kind == "head_on":
+        psi = math.pi + rng.uniform(-0.15, 0.15)
+    else:
+        psi = side * rng.uniform(2.0, 2.6)
+    direction = math.cos(psi) * tangent + math.sin(psi) * normal
+    a = rng.uniform(*p.obstacle_radius) * 0.85  # people-sized rather than pillar-sized
+    b = a * rng.uniform(0.75, 1.0)
+    speed = rng.uniform(*p.mover_speed)
+    offset = rng.uniform(-1.0, 1.0) * 0.5 * p.in_way_fraction * (b + p.half_width)
+    meet = point + offset * normal
+    t_meet = p.start_delay + station / p.nominal_speed
+    pre = min(rng.uniform(*p.pre_travel), speed * t_meet)
+    post = rng.uniform(*p.post_travel)
+    # Shrink the segment until it keeps clear of the start and the goal.
+    for _ in range(40):
+        p0, p1 = meet - pre * direction, meet + post * direction
+        if (_segment_point_distance(p0, p1, start) >= a + p.start_clearance
+                and _segment_point_distance(p0, p1, goal) >= a + p.goal_clearance):
+            break
+        pre, post = max(pre * 0.9, 0.3), max(post * 0.9, 0.3)
+    else:
+        return None
+    if (_segment_point_distance(p0, p1, start) < a + p.start_clearance
+            or _segment_point_distance(p0, p1, goal) < a + p.goal_clearance):
+        return None
+    start_time = max(t_meet - pre / speed, 0.0)
+    return {
+        "id": f"{kind}_{index}",
+        "plane": "vertical",
+        "position": _xy(p0),
+        "semi_axes": [_r(a), _r(b)],
+        "orientation": _r(math.atan2(direction[1], direction[0])),
+        "extent": _r(rng.uniform(*p.height)),
+        "color": [0.85, 0.35, 0.2, 1.0],
+        "motion": {
+            "type": "waypoints", "waypoints": [_xy(p1)], "speed": _r(speed), "mode": "stop",
+            "start_time": _r(start_time),
+        },
+    }
+
+
+def _bar_obstacle(rng, p: RandomProfile, index: int, point: np.ndarray) -> dict[str, Any]:
+    radius = rng.uniform(*p.bar_radius)
+    underside = rng.uniform(*p.bar_underside)
+    return {
+        "id": f"bar_{index}",
+        "plane": "horizontal",
+        "position": [_r(point[0]), _r(point[1]), _r(underside + radius)],
+        "semi_axes": [_r(radius), _r(radius)],
+        "extent": 4.0,
+        "color": [0.2, 0.6, 0.25, 1.0],
+    }
+
+
+def generate_scenario(
+    robot: str = "quadruped",
+    seed: int = 0,
+    profile: RandomProfile | None = None,
+    name: str | None = None,
+) -> dict[str, Any]:
+    """A random scenario mapping (YAML-ready) for ``robot``, fully determined by ``seed``.
+
+    Args:
+        robot: 'quadruped' or 'biped'.
+        seed: non-negative integer; also the scenario's perception seed.
+        profile: the ranges to draw from (default :data:`PROFILES` [robot]).
+        name: scenario name (default ``random_<robot>_<seed:03d>``).
+
+    """
+    p = profile or profile_for(robot)
+    if p.robot != robot:
+        raise ValueError(f"profile is for {p.robot!r}, not {robot!r}")
+    if seed < 0:
+        raise ValueError(f"seed must be >= 0, got {seed}")
+    rng = np.random.default_rng([int(seed), ROBOTS.index(robot)])
+    length = rng.uniform(*p.goal_distance)
+    use_bar = robot == "quadruped" and rng.random() < p.bar_probability
+    yaw = rng.uniform(-math.pi, math.pi) if p.random_heading and not use_bar else 0.0
+    tangent = np.array([math.cos(yaw), math.sin(yaw)])
+    normal = np.array([-math.sin(yaw), math.cos(yaw)])
+    start = np.zeros(2)
+    goal = start + length * tangent
+    count = int(rng.integers(p.obstacle_count[0], p.obstacle_count[1] + 1))
+    stations = _stations(rng, count, p.first_station, length - p.last_station, p.spacing)
+    bar_index = int(rng.integers(len(stations))) if use_bar and stations else -1
+    obstacles: list[dict[str, Any]] = []
+    for i, s in enumerate(stations):
+        point = start + s * tangent
+        if i == bar_index:
+            obstacles.append(_bar_obstacle(rng, p, i, point))
+            continue
+        mover = None
+        if rng.random() < p.moving_probability:
+            mover = _moving_obstacle(rng, p, i, s, point, tangent, normal, start, goal)
+        obstacle = mover or _static_obstacle(rng, p, i, point, normal, start, goal)
+        if obstacle is not None:
+            obstacles.append(obstacle)
+    kinds = sorted({o["id"].rsplit("_", 1)[0] for o in obstacles})
+    data: dict[str, Any] = {
+        "name": name or f"random_{robot}_{seed:03d}",
+        "description": (
+            f"Random {robot} scenario, seed {seed}: goal {length:.2f} m ahead at heading "
+            f"{math.degrees(yaw):.0f} deg, {len(obstacles)} obstacle(s) in the way "
+            f"({', '.join(kinds) or 'none'})."
+        ),
+        "robot": {"kind": robot, "position": _xy(start), "yaw": _r(yaw)},
+        "goal": {"position": _xy(goal), "tolerance": 0.3},
+        "duration": float(p.duration),
+        "seed": int(seed),
+        "perception": dict(p.perception),
+        "planner": {"mode": "goal", "speed": float(p.cruise_speed)},
+        "obstacles": obstacles,
+    }
+    overrides = dict(p.filter_overrides)
+    if bar_index >= 0:
+        overrides.update(BAR_FILTER_OVERRIDES)
+        data["planner"].update(BAR_PLANNER_OVERRIDES)
+    if overrides:
+        data["filter"] = overrides
+    return data
+
+
+def random_scenario(robot: str = "quadruped", seed: int = 0, **kwargs: Any) -> Scenario:
+    """The validated :class:`Scenario` of :func:`generate_scenario` (same arguments)."""
+    data = generate_scenario(robot, seed, **kwargs)
+    return parse_scenario(data, name=data["name"])
+
+
+def scenario_yaml(data: dict[str, Any]) -> str:
+    """YAML text of a scenario mapping, with a header comment."""
+    header = (
+        "# Generated by safe_legged_c3bf.evaluation.random_scenario (format: "
+        "doc/scenario_format.md).\n"
+    )
+    return header + yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100)
+
+
+def write_scenario(path: str | Path, data: dict[str, Any]) -> Path:
+    """Validate ``data`` and write it as YAML to ``path``; return the path."""
+    parse_scenario(data, name=str(data.get("name", Path(path).stem)))
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(scenario_yaml(data), encoding="utf-8")
+    return path
+
+
+def without_obstacles(data: dict[str, Any], suffix: str = "_free") -> dict[str, Any]:
+    """A copy of a scenario mapping with no obstacles (and no bar filter overrides needed).
+
+    The reference run for the time-to-goal overhead: same robot, goal, planner and duration.
+    """
+    out = {k: v for k, v in data.items() if k != "obstacles"}
+    out["obstacles"] = []
+    out["name"] = f"{data.get('name', 'scenario')}{suffix}"
+    out["description"] = f"{data.get('description', '')} Obstacles removed.".strip()
+    return out
+
+
+# ------------------------------------------------------------------------------ checks
+
+
+def nominal_robot_position(scenario: Scenario, t: float, profile: RandomProfile) -> np.ndarray:
+    """Where a robot walking the straight start-goal line at the nominal speed is at ``t``."""
+    start = np.asarray(scenario.robot.position, dtype=float)
+    goal = np.asarray(scenario.goal.position, dtype=float)
+    length = float(np.linalg.norm(goal - start))
+    if length <= 0.0:
+        return start
+    s = min(max(t - profile.start_delay, 0.0) * profile.nominal_speed, length)
+    return start + (goal - start) * (s / length)
+
+
+def obstacle_gaps(
+    scenario: Scenario, profile: RandomProfile | None = None, dt: float = 0.05
+) -> dict[str, float]:
+    """Per obstacle: how far the nominal straight-line robot stays from colliding with it (m).
+
+    Vertical obstacles: min over time of (centre distance - smaller semi-axis - half_width);
+    negative means the unfiltered robot runs into it. Horizontal bars: (underside height -
+    trunk top) where the bar spans the path, +inf when it does not. Uses
+    :class:`~safe_legged_c3bf.sim.obstacles.MotionScript` for the scripted motion.
+    """
+    from safe_legged_c3bf.sim.obstacles import MotionScript
+
+    p = profile or profile_for(scenario.robot.kind)
+    times = np.arange(0.0, scenario.duration + 1e-9, dt)
+    robot_xy = np.array([nominal_robot_position(scenario, t, p) for t in times])
+    gaps: dict[str, float] = {}
+    for obs in scenario.obstacles:
+        if obs.plane == "horizontal":
+            lo, hi = robot_xy[:, 0].min(), robot_xy[:, 0].max()
+            half = obs.extent / 2.0
+            spans = (lo <= obs.position[0] <= hi
+                     and np.any(np.abs(robot_xy[:, 1] - obs.position[1]) <= half))
+            underside = obs.position[2] - max(obs.semi_axes)
+            gaps[obs.id] = underside - p.trunk_top if spans else math.inf
+            continue
+        script = MotionScript(obs.position, obs.motion)
+        centres = np.array([script.state(float(t))[0][:2] for t in times])
+        dist = np.linalg.norm(centres - robot_xy, axis=1)
+        gaps[obs.id] = float(dist.min() - min(obs.semi_axes) - p.half_width)
+    return gaps
+
+
+def start_goal_clearance(scenario: Scenario, dt: float = 0.05) -> tuple[float, float]:
+    """Least distances (m) from any obstacle's surface to the start and to the goal.
+
+    Over the whole run, with the obstacle's circumscribed circle (inf without obstacles;
+    bars are skipped).
+    """
+    from safe_legged_c3bf.sim.obstacles import MotionScript
+
+    start = np.asarray(scenario.robot.position, dtype=float)
+    goal = np.asarray(scenario.goal.position, dtype=float)
+    times = np.arange(0.0, scenario.duration + 1e-9, dt)
+    to_start, to_goal = math.inf, math.inf
+    for obs in scenario.obstacles:
+        if obs.plane == "horizontal":
+            continue
+        script = MotionScript(obs.position, obs.motion)
+        centres = np.array([script.state(float(t))[0][:2] for t in times])
+        a = max(obs.semi_axes)
+        to_start = min(to_start, float(np.linalg.norm(centres - start, axis=1).min() - a))
+        to_goal = min(to_goal, float(np.linalg.norm(centres - goal, axis=1).min() - a))
+    return to_start, to_goal
+
+
+def moving(obs: ObstacleConfig) -> bool:
+    """True when the obstacle's script moves it."""
+    return obs.motion.type != "static"
+
+
+# ------------------------------------------------------------------------------ CLI
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Print (or write) one random scenario."""
+    parser = argparse.ArgumentParser(
+        prog="python -m safe_legged_c3bf.evaluation.random_scenario",
+        description="Print a seeded random scenario (YAML) with obstacles in the robot's way.",
+    )
+    parser.add_argument("--robot", choices=ROBOTS, default="quadruped")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("-o", "--output", type=Path, help="write to this file instead")
+    opts = parser.parse_args(argv)
+    data = generate_scenario(opts.robot, opts.seed)
+    if opts.output:
+        print(write_scenario(opts.output, data))
+    else:
+        sys.stdout.write(scenario_yaml(data))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
