@@ -76,7 +76,7 @@ class FilterParams:
     max_yaw_rate: float = 1.0
     max_vertical_speed: float = 0.2
     min_height: float = 0.20
-    max_height: float = 0.32
+    max_height: float = 0.285
     height_gain: float = 4.0
     windup_band: float = 0.3
     weights: tuple[float, float, float] = (1.0, 0.2, 0.5)
