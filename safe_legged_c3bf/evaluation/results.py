@@ -171,7 +171,7 @@ def aggregate(
 
 
 def _cell(value: Any, key: str = "") -> str:
-    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+    if value is None or value == "" or (isinstance(value, float) and not math.isfinite(value)):
         return "–"
     if isinstance(value, bool):
         return "yes" if value else "no"
@@ -180,7 +180,8 @@ def _cell(value: Any, key: str = "") -> str:
             value = 0.0  # no "-0.000"
         if key.endswith("_rate") or key in ("intervention_mean", "intervention_share",
                                             "relaxed_share"):
-            return f"{100 * value:.0f} %"
+            digits = 1 if 0 < abs(value) < 0.1 else 0  # "0.4 %", not "0 %"
+            return f"{100 * value:.{digits}f} %"
         if key.endswith("_ms"):
             return f"{value:.2f}"
         if key.endswith("_pct"):
@@ -383,11 +384,13 @@ def write_figures(records: Sequence[dict[str, Any]], folder: Path) -> list[str]:
             ("on", "success_rate", "tab:green", "success, filter on"))
     for k, (filt, key, color, label) in enumerate(bars):
         vals = [summarize_group(pick(rb, kd, filt)).get(key) for rb, kd in groups]
-        ax.bar(x + (k - 1) * 0.27, [np.nan if v is None else 100 * v for v in vals], 0.25,
-               color=color, label=label)
+        heights = [np.nan if v is None else 100 * v for v in vals]
+        bars_k = ax.bar(x + (k - 1) * 0.27, heights, 0.25, color=color, label=label)
+        ax.bar_label(bars_k, labels=["" if np.isnan(h) else f"{h:.0f}" for h in heights],
+                     fontsize=7)
     ax.set_xticks(x, names, fontsize=8)
     ax.set_ylabel("% of runs")
-    ax.set_ylim(0, 105)
+    ax.set_ylim(0, 110)
     ax.set_title("Collisions and successes per scenario kind")
     ax.legend(fontsize=8, loc="upper right")
     ax.grid(True, axis="y", alpha=0.3)
