@@ -244,3 +244,13 @@ def test_holonomic_model_side_steps_around_an_obstacle():
 def test_invalid_parameters_are_rejected_with_the_reason(change, fragment):
     with pytest.raises(ValueError, match=fragment):
         FilterParams().updated(**change)
+
+
+def test_repeated_or_backward_time_stamps_stay_finite():
+    cycle = SafetyFilterCycle()
+    robot = SimpleRobot(vx=0.3)
+    wall = ScriptedObstacle("w", np.array([2.0, 0.0, 0.5]))
+    for t in (1.0, 1.0, 0.5, 0.5):  # same stamp twice, then back in time
+        out = cycle.step(t, VelocityCommand(0.5), t, robot.base_state(t), [wall.at(t)], t)
+        assert out.status is not CycleStatus.INVALID_INPUT, out.text
+        assert np.all(np.isfinite(out.command.as_array()))

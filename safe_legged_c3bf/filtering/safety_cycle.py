@@ -182,7 +182,11 @@ class SafetyFilterCycle:
 
         """
         p = self.params
-        dt = 1.0 / p.rate if self._last_t is None else min(max(t - self._last_t, 0.0), 2.0 / p.rate)
+        # Cycle period (s): nominal at first; never 0 (two cycles at one stamp, or sim time
+        # going back) and never more than two periods (the integrator must not leap).
+        period = 1.0 / p.rate
+        dt = period if self._last_t is None else min(max(t - self._last_t, 0.25 * period),
+                                                     2.0 * period)
         self._last_t = t
         ref_stale = (
             reference is None or reference_time is None or t - reference_time > p.reference_timeout
