@@ -17,7 +17,6 @@ SIGINT (Ctrl-C) / SIGTERM. See doc/bringup.md.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import importlib
 import inspect
 import math
@@ -33,6 +32,7 @@ from typing import Any
 
 import yaml
 
+from safe_legged_c3bf.run.quiet_stderr import quiet_stderr
 from safe_legged_c3bf.run.report import RunContext, format_summary, write_run_folder
 from safe_legged_c3bf.run.supervisor import (
     ManagedProcess,
@@ -199,23 +199,11 @@ def _robot_profile(kind: str) -> dict[str, dict[str, Any]]:
     return profile
 
 
-@contextlib.contextmanager
-def _quiet_stderr():
-    """Silence C-level prints to fd 2 (pybullet prints its build time when imported)."""
-    sys.stderr.flush()
-    saved = os.dup(2)
-    try:
-        with open(os.devnull, "wb") as devnull:
-            os.dup2(devnull.fileno(), 2)
-        yield
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
 
 
 def make_plan(opts: argparse.Namespace) -> RunPlan:
     """Load the scenario, choose the run folder and the parameters of every node."""
-    with _quiet_stderr():
+    with quiet_stderr():
         import pybullet  # noqa: F401 - imported once, quietly, for the scenario checks
     from safe_legged_c3bf.sim.robots import robot_spec
     from safe_legged_c3bf.sim.scenario import ScenarioError, load_scenario, resolve_scenario

@@ -22,9 +22,7 @@ See doc/evaluation.md.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import math
-import os
 import signal
 import sys
 import time
@@ -38,6 +36,7 @@ import yaml
 from safe_legged_c3bf.evaluation.results import RUN_COLUMNS, attach_overhead, write_csv
 from safe_legged_c3bf.evaluation.results import write_results as _write_results
 from safe_legged_c3bf.evaluation.runner import Runner, RunSpec
+from safe_legged_c3bf.run.quiet_stderr import quiet_stderr
 
 #: Evaluation scenarios in config/scenarios: name -> kind (robot comes from the file).
 PAPER_SCENARIOS = {
@@ -220,24 +219,12 @@ def _sigterm(signum: int, frame) -> None:  # noqa: ANN001
     raise KeyboardInterrupt
 
 
-@contextlib.contextmanager
-def _quiet_fd2():
-    """Silence C-level prints to fd 2 (pybullet prints its build time when imported)."""
-    sys.stderr.flush()
-    saved = os.dup(2)
-    try:
-        with open(os.devnull, "wb") as devnull:
-            os.dup2(devnull.fileno(), 2)
-        yield
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the evaluation; see the module docstring for the exit codes."""
     opts = build_parser().parse_args(argv)
-    with _quiet_fd2():
+    with quiet_stderr():
         from safe_legged_c3bf.sim.scenario import ScenarioError
 
     if opts.jobs < 1 or (opts.seeds is not None and opts.seeds < 1):
