@@ -64,24 +64,12 @@ class GaitControllerNode(Node):
         self._tick_wall = 0.0
         self._command_stale = True
 
-        self._pub = self.create_publisher(
-            MotorCommand, topics.JOINT_COMMANDS.name, ros_common.qos(topics.JOINT_COMMANDS)
-        )
-        self._diag_pub = self.create_publisher(
-            topics.DIAGNOSTICS.msg_class(), topics.DIAGNOSTICS.name,
-            ros_common.qos(topics.DIAGNOSTICS),
-        )
-        self.create_subscription(
-            Odometry, topics.ODOM.name, self._on_odom, ros_common.qos(topics.ODOM)
-        )
-        self.create_subscription(
-            JointState, topics.JOINT_STATES.name, self._on_joints,
-            ros_common.qos(topics.JOINT_STATES),
-        )
-        self.create_subscription(Imu, topics.IMU.name, self._on_imu, ros_common.qos(topics.IMU))
-        self.create_subscription(
-            Twist, topics.CMD_VEL_SAFE.name, self._on_cmd, ros_common.qos(topics.CMD_VEL_SAFE)
-        )
+        self._pub = ros_common.publisher(self, topics.JOINT_COMMANDS)
+        self._diag_pub = ros_common.publisher(self, topics.DIAGNOSTICS)
+        ros_common.subscription(self, topics.ODOM, self._on_odom)
+        ros_common.subscription(self, topics.JOINT_STATES, self._on_joints)
+        ros_common.subscription(self, topics.IMU, self._on_imu)
+        ros_common.subscription(self, topics.CMD_VEL_SAFE, self._on_cmd)
         self.create_timer(
             float(self.get_parameter("diagnostics_period").value), self._publish_diagnostics
         )

@@ -299,23 +299,11 @@ class ObstacleTrackerNode(Node):
         self._publishing = False
         self.last_cycle_time: float | None = None  # sim time of the last timer cycle
 
-        self._pub = self.create_publisher(
-            ObstacleArray, topics.OBSTACLES.name, ros_common.qos(topics.OBSTACLES)
-        )
-        self._marker_pub = self.create_publisher(
-            MarkerArray, topics.OBSTACLE_MARKERS.name, ros_common.qos(topics.OBSTACLE_MARKERS)
-        )
-        self._diag_pub = self.create_publisher(
-            topics.DIAGNOSTICS.msg_class(), topics.DIAGNOSTICS.name,
-            ros_common.qos(topics.DIAGNOSTICS),
-        )
-        self.create_subscription(
-            ObstacleArray, topics.OBSTACLE_DETECTIONS.name, self._on_detections,
-            ros_common.qos(topics.OBSTACLE_DETECTIONS),
-        )
-        self.create_subscription(
-            Odometry, topics.ODOM.name, self._on_odom, ros_common.qos(topics.ODOM)
-        )
+        self._pub = ros_common.publisher(self, topics.OBSTACLES)
+        self._marker_pub = ros_common.publisher(self, topics.OBSTACLE_MARKERS)
+        self._diag_pub = ros_common.publisher(self, topics.DIAGNOSTICS)
+        ros_common.subscription(self, topics.OBSTACLE_DETECTIONS, self._on_detections)
+        ros_common.subscription(self, topics.ODOM, self._on_odom)
         self._timer = self.create_timer(1.0 / float(self._node_params["rate"]), self._on_timer)
         self.create_timer(float(self._node_params["diagnostics_period"]), self._publish_diagnostics)
 

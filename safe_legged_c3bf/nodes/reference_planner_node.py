@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 
-from geometry_msgs.msg import PoseStamped, Twist
+from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.node import Node
@@ -282,19 +282,10 @@ class ReferencePlannerNode(Node):
         self._last_state: str | None = None
         self._last_command = VelocityCommand()
 
-        self._pub = self.create_publisher(
-            Twist, topics.CMD_VEL.name, ros_common.qos(topics.CMD_VEL)
-        )
-        self._diag_pub = self.create_publisher(
-            topics.DIAGNOSTICS.msg_class(), topics.DIAGNOSTICS.name,
-            ros_common.qos(topics.DIAGNOSTICS),
-        )
-        self.create_subscription(
-            Odometry, topics.ODOM.name, self._on_odom, ros_common.qos(topics.ODOM)
-        )
-        self.create_subscription(
-            PoseStamped, topics.GOAL_POSE.name, self._on_goal, ros_common.qos(topics.GOAL_POSE)
-        )
+        self._pub = ros_common.publisher(self, topics.CMD_VEL)
+        self._diag_pub = ros_common.publisher(self, topics.DIAGNOSTICS)
+        ros_common.subscription(self, topics.ODOM, self._on_odom)
+        ros_common.subscription(self, topics.GOAL_POSE, self._on_goal)
         self._timer = self.create_timer(1.0 / float(values["rate"]), self._on_timer)
         self.create_timer(float(values["diagnostics_period"]), self._publish_diagnostics)
         self.get_logger().info(f"reference planner in {self.planner.config.mode.value} mode")

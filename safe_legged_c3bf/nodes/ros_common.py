@@ -42,6 +42,16 @@ def qos(topic: Topic) -> QoSProfile:
     )
 
 
+def publisher(node: Node, topic: Topic):  # noqa: ANN201 - rclpy Publisher
+    """Publisher of a contract topic: its name, message type and QoS from ``topics.py``."""
+    return node.create_publisher(topic.msg_class(), topic.name, qos(topic))
+
+
+def subscription(node: Node, topic: Topic, callback: Callable):  # noqa: ANN201
+    """Subscription to a contract topic: its name, message type and QoS from ``topics.py``."""
+    return node.create_subscription(topic.msg_class(), topic.name, callback, qos(topic))
+
+
 def use_sim_time(node: Node, enabled: bool = True) -> None:
     """Switch ``node`` to sim time from /clock (a no-op if the parameter is already set)."""
     if node.has_parameter("use_sim_time"):

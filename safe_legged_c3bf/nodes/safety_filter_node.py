@@ -80,26 +80,12 @@ class SafetyFilterNode(Node):
         self.latencies: list[float] = []  # wall s from odometry receipt to publish
         self.cycles = 0
 
-        self._cmd_pub = self.create_publisher(
-            Twist, topics.CMD_VEL_SAFE.name, ros_common.qos(topics.CMD_VEL_SAFE)
-        )
-        self._state_pub = self.create_publisher(
-            SafetyFilterState, topics.FILTER_STATE.name, ros_common.qos(topics.FILTER_STATE)
-        )
-        self._diag_pub = self.create_publisher(
-            topics.DIAGNOSTICS.msg_class(), topics.DIAGNOSTICS.name,
-            ros_common.qos(topics.DIAGNOSTICS),
-        )
-        self.create_subscription(
-            Twist, topics.CMD_VEL.name, self._on_reference, ros_common.qos(topics.CMD_VEL)
-        )
-        self.create_subscription(
-            Odometry, topics.ODOM.name, self._on_odom, ros_common.qos(topics.ODOM)
-        )
-        self.create_subscription(
-            ObstacleArray, topics.OBSTACLES.name, self._on_obstacles,
-            ros_common.qos(topics.OBSTACLES),
-        )
+        self._cmd_pub = ros_common.publisher(self, topics.CMD_VEL_SAFE)
+        self._state_pub = ros_common.publisher(self, topics.FILTER_STATE)
+        self._diag_pub = ros_common.publisher(self, topics.DIAGNOSTICS)
+        ros_common.subscription(self, topics.CMD_VEL, self._on_reference)
+        ros_common.subscription(self, topics.ODOM, self._on_odom)
+        ros_common.subscription(self, topics.OBSTACLES, self._on_obstacles)
         self._timer = self.create_timer(1.0 / params.rate, self._on_timer)
         self.create_timer(1.0, self._publish_diagnostics)
         self._last_output: CycleOutput | None = None
