@@ -64,6 +64,8 @@ EXIT_SIGNAL = {signal.SIGINT: 130, signal.SIGTERM: 143, signal.SIGHUP: 129}
 PROGRESS_PERIOD_TTY = 0.25
 PROGRESS_PERIOD_LOG = 5.0
 HOUSEKEEPING_PERIOD = 0.1
+#: Sim seconds a --stop-on-outcome run goes on after its deciding event (data to plot).
+OUTCOME_HOLD = 1.0
 
 
 class StartupError(RuntimeError):
@@ -107,6 +109,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--duration", type=float, metavar="S",
                    help="override the scenario duration (s, sim time)")
     p.add_argument("--seed", type=int, metavar="N", help="override the scenario seed")
+    p.add_argument("--stop-on-outcome", action="store_true",
+                   help="end the run once its outcome is settled: "
+                   f"{OUTCOME_HOLD:g} s (sim) after the goal is reached, the first collision "
+                   "or a fall (evaluations use it; default: run the whole duration)")
     p.add_argument("--domain-id", type=int, metavar="N",
                    help="use this ROS_DOMAIN_ID as is (default: lease a private one, "
                    "localhost only)")
@@ -634,6 +640,7 @@ class Bringup:
                 redirect = _StderrToFile(plan.run_dir / "logs" / "in_process.log")
             self.monitor = MonitorNode(cli_args=_remap_args(plan.remaps) or None)
             self.monitor.goal = plan.context.goal
+            self.monitor.goal_tolerance = plan.context.goal_tolerance
             if opts.in_process and opts.executor == "multi":
                 self.executor = MultiThreadedExecutor(num_threads=4)
             else:
@@ -679,7 +686,7 @@ class Bringup:
 
     def _drain(self, timeout: float = 2.0) -> None:
         """Let the monitor (and an in-process recorder) catch up with the last messages."""
-        deadline = time.monotonic() + timeout
+        deadline = time.monotonic() + (0.3 if self._stopped_early else timeout)
         target = self.plan.context.duration - 1e-3
         while time.monotonic() < deadline and not self.stop_request:
             if self.monitor.sim_time is not None and self.monitor.sim_time >= target:
@@ -698,6 +705,7 @@ class Bringup:
                 _err(None, f"{name}: error while stopping: {err!r}")
 
     _done = False
+    _stopped_early = False
 
     def _watch(self) -> None:
         plan, opts, monitor = self.plan, self.opts, self.monitor
@@ -726,6 +734,11 @@ class Bringup:
             if self._in_process_finished():
                 self.outcome = Outcome("completed", "the simulator finished the scenario")
                 self._done = True
+                return
+            settled = monitor.decided(OUTCOME_HOLD) if opts.stop_on_outcome else None
+            if settled is not None:
+                self.outcome = Outcome("completed", settled)
+                self._done = self._stopped_early = True
                 return
             if reached_at is not None and (
                 self.supervisor is None or now - reached_at > self._finish_grace()

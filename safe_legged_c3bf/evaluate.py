@@ -98,6 +98,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="output folder (default runs/evaluation-<suite>-<timestamp>)")
     p.add_argument("--in-process", action="store_true",
                    help="run each bringup with --in-process (all nodes in one process)")
+    p.add_argument("--full-duration", action="store_true",
+                   help="run every scenario to its end (default: stop a run once its outcome "
+                   "is settled: 1 s after the goal, the first collision or a fall)")
     p.add_argument("--no-baseline", action="store_true", help="skip the runs without filter")
     p.add_argument("--no-free", action="store_true",
                    help="skip the obstacle-free reference runs (no time-to-goal overhead)")
@@ -268,7 +271,8 @@ def main(argv: list[str] | None = None) -> int:
         write_csv(out / "results.csv", attach_overhead(list(done)), RUN_COLUMNS)
 
     previous = signal.signal(signal.SIGTERM, _sigterm)
-    runner = Runner(out, jobs=opts.jobs, in_process=opts.in_process)
+    runner = Runner(out, jobs=opts.jobs, in_process=opts.in_process,
+                    full_duration=opts.full_duration)
     t0 = time.monotonic()
     interrupted = False
     try:

@@ -109,3 +109,21 @@ def test_run_folder_files_and_replot(tmp_path):
         (tmp_path / name).unlink()
     assert main([str(tmp_path)]) == 0
     assert all((tmp_path / name).is_file() for name in PLOTS.values())
+
+
+def test_outcome_settles_after_the_first_decisive_event():
+    from types import SimpleNamespace
+
+    from safe_legged_c3bf.run.monitor import MonitorNode
+
+    def decided(t, goal=None, collision=None, fall=None):
+        m = SimpleNamespace(sim_time=t, goal_time=goal, collision_time=collision, fall_time=fall)
+        return MonitorNode.decided(m, 1.0)
+
+    assert decided(None) is None
+    assert decided(10.0) is None
+    assert decided(10.5, goal=10.0) is None  # still within the hold time
+    assert decided(11.0, goal=10.0).startswith("goal reached at t = 10.00 s")
+    # A collision names the run even when the goal came first.
+    assert decided(12.0, goal=10.0, collision=10.5).startswith("collision at t = 10.50 s")
+    assert decided(12.0, fall=9.0).startswith("fall at t = 9.00 s")

@@ -86,6 +86,30 @@ def test_random_obstacles_keep_off_start_and_goal(robot):
                 assert math.dist(obs.position[:2], point) > max(obs.semi_axes) + 0.5
 
 
+@pytest.mark.parametrize("robot", rs.ROBOTS)
+def test_random_movers_leave_a_passage_at_rest(robot):
+    """No mover waits or stops so close to another obstacle that a dead end forms."""
+    profile = rs.profile_for(robot)
+    checked = 0
+    for seed in range(60):
+        sc = rs.random_scenario(robot, seed)
+        gap = rs.passages(sc)
+        checked += math.isfinite(gap)
+        assert gap >= profile.passage - 0.01, (seed, gap)
+    assert checked >= 2  # pairs with a mover occur
+
+
+def test_passage_check_sees_a_mover_stopping_beside_a_pillar():
+    pillar = {"plane": "vertical", "position": [0.0, 0.0], "semi_axes": [0.25, 0.2],
+              "motion": {"type": "static"}}
+    mover = {"plane": "vertical", "position": [3.0, 3.0], "semi_axes": [0.2, 0.2],
+             "motion": {"type": "waypoints", "waypoints": [[0.9, 0.3]], "speed": 0.2}}
+    assert not rs._leaves_passage(mover, [pillar], 1.0)
+    assert rs._leaves_passage(mover, [pillar], 0.3)
+    far = {**mover, "motion": {**mover["motion"], "waypoints": [[2.0, 1.0]]}}
+    assert rs._leaves_passage(far, [pillar], 1.0)
+
+
 def test_random_mix_has_every_obstacle_type():
     kinds = set()
     for seed in range(60):
@@ -315,8 +339,9 @@ def test_bringup_command():
     cmd = bringup_command(s, Path("/tmp/x"), in_process=True, python="py")
     assert cmd[:3] == ["py", "-m", "safe_legged_c3bf.bringup"]
     for item in ("--no-filter", "--in-process", "--seed", "3", "--duration", "12",
-                 "--out", "/tmp/x", "--scenario", "quadruped_static"):
+                 "--out", "/tmp/x", "--scenario", "quadruped_static", "--stop-on-outcome"):
         assert item in cmd
+    assert "--stop-on-outcome" not in bringup_command(s, Path("/tmp/x"), full_duration=True)
 
 
 def test_runner_runs_in_parallel_and_classifies(tmp_path, fake_python):

@@ -96,11 +96,18 @@ class RunSpec:
 
 
 def bringup_command(
-    spec: RunSpec, run_dir: Path, in_process: bool = False, python: str | None = None
+    spec: RunSpec, run_dir: Path, in_process: bool = False, python: str | None = None,
+    full_duration: bool = False,
 ) -> list[str]:
-    """The command line of the bringup subprocess of ``spec``."""
+    """The command line of the bringup subprocess of ``spec``.
+
+    Runs end once their outcome is settled (``--stop-on-outcome``: goal reached, collision
+    or fall) unless ``full_duration``.
+    """
     cmd = [python or sys.executable, "-m", "safe_legged_c3bf.bringup",
            "--scenario", str(spec.scenario), "--out", str(run_dir), "--progress-period", "5"]
+    if not full_duration:
+        cmd.append("--stop-on-outcome")
     if not spec.filter_enabled:
         cmd.append("--no-filter")
     if in_process:
@@ -244,6 +251,8 @@ class Runner:
         out_dir: evaluation folder; run folders go to ``out_dir/runs/<run_id>``.
         jobs: how many bringups at once (each is itself 5-6 processes).
         in_process: pass ``--in-process`` to every bringup.
+        full_duration: run every scenario to its end instead of stopping once the outcome
+            is settled (goal reached, collision or fall).
         python: interpreter (default: this one).
         progress: called with each progress line (default: print to stdout).
         wall_limit: wall seconds allowed per run given its sim duration (default:
@@ -256,6 +265,7 @@ class Runner:
         out_dir: str | Path,
         jobs: int = 2,
         in_process: bool = False,
+        full_duration: bool = False,
         python: str | None = None,
         progress: Callable[[str], None] | None = None,
         wall_limit: Callable[[float], float] | None = None,
@@ -264,6 +274,7 @@ class Runner:
         self.out_dir = Path(out_dir)
         self.jobs = max(1, int(jobs))
         self.in_process = in_process
+        self.full_duration = full_duration
         self.python = python or sys.executable
         self._print = progress or (lambda line: print(line, flush=True))
         self._wall_limit = wall_limit or (
@@ -351,7 +362,7 @@ class Runner:
                 return record_from_report(spec, None, None, 0.0, False, run_dir) | {
                     "outcome": "interrupted", "failures": "interrupted",
                     "reason": "evaluation interrupted before the run started"}
-        cmd = bringup_command(spec, run_dir, self.in_process, self.python)
+        cmd = bringup_command(spec, run_dir, self.in_process, self.python, self.full_duration)
         label = _label(spec)
         self._say(f"start {label}")
         limit = self._wall_limit(spec.duration or duration)

@@ -96,6 +96,11 @@ class MonitorNode(Node):
         self.data = RunData()
         self.status_text = "-"
         self.goal: tuple[float, float] | None = None
+        self.goal_tolerance = 0.3
+        #: Sim times (s) of the first goal arrival, collision and fall; None until seen.
+        self.goal_time: float | None = None
+        self.collision_time: float | None = None
+        self.fall_time: float | None = None
         self._rtf_window: deque[tuple[float, float]] = deque()
         subs = [
             (topics.ODOM, self._on_odom),
@@ -165,12 +170,30 @@ class MonitorNode(Node):
             return None
         return math.dist(pos, self.goal)
 
+    def decided(self, hold: float) -> str | None:
+        """Why the run's outcome is settled ``hold`` s (sim) after its first decisive event.
+
+        Decisive: a collision, a fall, or the base within ``goal_tolerance`` of the goal.
+        Returns None while nothing is settled.
+        """
+        t = self.sim_time
+        if t is None:
+            return None
+        for label, when in (("collision", self.collision_time), ("fall", self.fall_time),
+                            ("goal reached", self.goal_time)):
+            if when is not None and t >= when + hold:
+                return f"{label} at t = {when:.2f} s: run ended early (--stop-on-outcome)"
+        return None
+
     # -- callbacks ----------------------------------------------------------------------------
     def _on_odom(self, msg) -> None:  # noqa: ANN001
         t = self._stamp(msg.header.stamp)
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
         v, w = msg.twist.twist.linear, msg.twist.twist.angular
         self.data.odom.append((t, p.x, p.y, p.z, _yaw(q), v.x, v.y, v.z, w.z))
+        if (self.goal_time is None and self.goal is not None
+                and math.dist((p.x, p.y), self.goal) <= self.goal_tolerance):
+            self.goal_time = t
 
     def _twist_handler(self, rows: list):
         def on_twist(msg) -> None:  # noqa: ANN001
@@ -201,6 +224,10 @@ class MonitorNode(Node):
             float(msg.fallen),
         ))
         self.data.closest.append(msg.closest_obstacle_id)
+        if self.collision_time is None and (msg.in_collision or msg.collision_count > 0):
+            self.collision_time = t
+        if self.fall_time is None and msg.fallen:
+            self.fall_time = t
         self.data.contacts.update(msg.contact_obstacle_ids)
 
     def _on_obstacles(self, msg) -> None:  # noqa: ANN001
