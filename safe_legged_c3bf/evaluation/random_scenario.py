@@ -22,8 +22,13 @@
 
 No obstacle ever comes near the start or the goal: the whole motion segment of every
 obstacle keeps ``start_clearance`` / ``goal_clearance`` m between the obstacle's surface and
-those points. :func:`obstacle_gaps` re-checks the "in the way" property on any scenario: the
-straight-line robot at its nominal speed meets every obstacle.
+those points. No mover closes a passage: where it waits and where it stops it leaves at least
+``passage`` m between its surface and every other obstacle's surface at rest (or its draw is
+repeated). Without that rule a mover could stop beside a pillar the robot is passing and form
+a dead end that only a global planner gets out of (seen with a straight-line planner: the
+robot stood safe in the pocket until the time ran out). :func:`passages` re-checks that rule
+and :func:`obstacle_gaps` the "in the way" property on any scenario: the straight-line robot
+at its nominal speed meets every obstacle.
 
 ``python -m safe_legged_c3bf.evaluation.random_scenario --robot biped --seed 4`` prints one.
 """
@@ -78,6 +83,9 @@ class RandomProfile:
         bar_probability: chance that one station holds a bar instead (quadruped only).
         half_width: half the robot's width across the path (m): a vertical obstacle is in
             the way when the straight path passes closer than its smaller semi-axis plus this.
+        passage: least surface-to-surface gap (m) between a mover at rest (waiting or
+            stopped) and any other obstacle at rest: the filter's inflation diameter plus a
+            margin, so no dead end forms.
         in_way_fraction: the lateral offset of a conflict point is at most this share of
             (smaller semi-axis + half_width).
         start_clearance: least distance (m) between any obstacle surface and the start, over
@@ -116,6 +124,7 @@ class RandomProfile:
     bar_probability: float
     half_width: float
     in_way_fraction: float
+    passage: float
     start_clearance: float
     goal_clearance: float
     first_station: float
@@ -137,23 +146,27 @@ class RandomProfile:
 #: Default profiles. Timing measured on obstacle-free runs: the A1 at 0.4 m/s walks
 #: x(t) = 0.4 (t - 0.4) m; the biped at 0.2 m/s (the ZMP walker's command limit)
 #: x(t) = 0.195 (t - 2.0) m and reaches a goal 3.2 m away in 16.8 s, 3.9 m in 20 s. It is slow
-#: to walk around an obstacle (+6-7 s), hence the short goal distances for a 30 s run.
+#: to walk around an obstacle (+6-7 s; a slow mover can keep it waiting for 20 s), hence the
+#: short goal distances and the 45 s budget. Durations are time budgets: evaluations end a
+#: run once its outcome is settled.
 PROFILES: dict[str, RandomProfile] = {
     "quadruped": RandomProfile(
         robot="quadruped", cruise_speed=0.4, nominal_speed=0.4, start_delay=0.4,
-        goal_distance=(5.5, 7.0), duration=28.0, obstacle_count=(1, 3),
+        goal_distance=(5.5, 7.0), duration=36.0, obstacle_count=(1, 3),
         obstacle_radius=(0.18, 0.35), aspect=(0.6, 1.0), height=(0.8, 1.8),
         mover_speed=(0.15, 0.35), moving_probability=0.5, kind_weights=(0.4, 0.3, 0.3),
-        bar_probability=0.2, half_width=0.15, in_way_fraction=0.5, start_clearance=1.0,
+        bar_probability=0.2, half_width=0.15, in_way_fraction=0.5, passage=1.0,
+        start_clearance=1.0,
         goal_clearance=1.0, first_station=2.5, last_station=1.5, spacing=1.2,
         pre_travel=(1.5, 3.5), post_travel=(1.5, 2.5),
     ),
     "biped": RandomProfile(
         robot="biped", cruise_speed=0.2, nominal_speed=0.195, start_delay=2.0,
-        goal_distance=(3.0, 3.6), duration=30.0, obstacle_count=(1, 2),
+        goal_distance=(3.0, 3.6), duration=45.0, obstacle_count=(1, 2),
         obstacle_radius=(0.15, 0.3), aspect=(0.6, 1.0), height=(1.0, 1.8),
         mover_speed=(0.1, 0.2), moving_probability=0.5, kind_weights=(0.4, 0.3, 0.3),
-        bar_probability=0.0, half_width=0.15, in_way_fraction=0.5, start_clearance=0.9,
+        bar_probability=0.0, half_width=0.15, in_way_fraction=0.5, passage=1.05,
+        start_clearance=0.9,
         goal_clearance=0.9, first_station=1.4, last_station=1.2, spacing=0.9,
         pre_travel=(1.0, 2.5), post_travel=(1.3, 2.0), trunk_top=1.1,
         filter_overrides=dict(BIPED_FILTER_OVERRIDES),
@@ -279,6 +292,64 @@ def _moving_obstacle(
     }
 
 
+#: Draws of a mover before its station gets a pillar instead.
+MOVER_DRAWS = 10
+
+
+def _rest_positions(obstacle: dict[str, Any]) -> list[np.ndarray]:
+    """Where a vertical obstacle stands still: its start and, for a mover, its stop."""
+    points = [np.asarray(obstacle["position"][:2], dtype=float)]
+    motion = obstacle.get("motion") or {}
+    if motion.get("type") == "waypoints":
+        points.append(np.asarray(motion["waypoints"][-1], dtype=float))
+    return points
+
+
+def _leaves_passage(new: dict[str, Any], others: list[dict[str, Any]], passage: float) -> bool:
+    """True unless a mover at rest (``new`` or one of ``others``) closes a gap with another.
+
+    Checked for every pair involving a mover: each rest position keeps ``passage`` m between
+    the circumscribed circles. Bars and static-static pairs are not checked.
+    """
+    if new.get("plane") != "vertical":
+        return True
+    new_moves = (new.get("motion") or {}).get("type") == "waypoints"
+    a_new = max(new["semi_axes"])
+    for other in others:
+        if other.get("plane") != "vertical":
+            continue
+        if not new_moves and (other.get("motion") or {}).get("type") != "waypoints":
+            continue
+        reach = a_new + max(other["semi_axes"]) + passage
+        for p in _rest_positions(new):
+            for q in _rest_positions(other):
+                if float(np.linalg.norm(p - q)) < reach:
+                    return False
+    return True
+
+
+def passages(scenario: Scenario) -> float:
+    """Least surface gap (m) between a mover at rest and any other vertical obstacle at rest.
+
+    inf when there is no such pair (circumscribed circles).
+    """
+    rest: list[tuple[bool, float, list[np.ndarray]]] = []
+    for obs in scenario.obstacles:
+        if obs.plane != "vertical":
+            continue
+        points = [np.asarray(obs.position[:2], dtype=float)]
+        if moving(obs):
+            points.append(np.asarray(obs.motion.waypoints[-1][:2], dtype=float))
+        rest.append((moving(obs), max(obs.semi_axes), points))
+    gap = math.inf
+    for i, (mi, ai, pi) in enumerate(rest):
+        for mj, aj, pj in rest[i + 1:]:
+            if mi or mj:
+                gap = min(gap, min(float(np.linalg.norm(p - q)) - ai - aj
+                                   for p in pi for q in pj))
+    return gap
+
+
 def _bar_obstacle(rng, p: RandomProfile, index: int, point: np.ndarray) -> dict[str, Any]:
     radius = rng.uniform(*p.bar_radius)
     underside = rng.uniform(*p.bar_underside)
@@ -331,8 +402,14 @@ def generate_scenario(
             continue
         mover = None
         if rng.random() < p.moving_probability:
-            mover = _moving_obstacle(rng, p, i, s, point, tangent, normal, start, goal)
+            for _ in range(MOVER_DRAWS):
+                mover = _moving_obstacle(rng, p, i, s, point, tangent, normal, start, goal)
+                if mover is None or _leaves_passage(mover, obstacles, p.passage):
+                    break
+                mover = None
         obstacle = mover or _static_obstacle(rng, p, i, point, normal, start, goal)
+        if obstacle is not None and not _leaves_passage(obstacle, obstacles, p.passage):
+            obstacle = None  # a pillar beside a resting mover: leave the station empty
         if obstacle is not None:
             obstacles.append(obstacle)
     kinds = sorted({o["id"].rsplit("_", 1)[0] for o in obstacles})
