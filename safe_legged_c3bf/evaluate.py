@@ -106,6 +106,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="skip the obstacle-free reference runs (no time-to-goal overhead)")
     p.add_argument("--duration", type=float, metavar="S",
                    help="override every scenario's duration (sim seconds)")
+    p.add_argument("--combine", nargs="+", type=Path, metavar="DIR",
+                   help="run nothing: merge the results.csv of these evaluation folders into "
+                   "one set of tables and figures in --out (e.g. the two random suites)")
     p.add_argument("--dry-run", action="store_true", help="list the runs and exit")
     p.add_argument("--no-figures", action="store_true", help="tables only")
     return p
@@ -236,6 +239,8 @@ def main(argv: list[str] | None = None) -> int:
     if opts.duration is not None and not opts.duration > 0:
         print("evaluate: --duration must be positive", file=sys.stderr)
         return EXIT_USAGE
+    if opts.combine:
+        return combine(opts.combine, opts.out, not opts.no_figures, argv)
     suite = "custom" if opts.scenario else opts.suite
     stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
     out = (opts.out or Path("runs") / f"evaluation-{suite}-{stamp}").resolve()
@@ -302,6 +307,37 @@ def main(argv: list[str] | None = None) -> int:
         print(f"evaluate: {len(unexecuted)} run(s) could not be executed: "
               + ", ".join(r["run_id"] for r in unexecuted), file=sys.stderr)
         return EXIT_FAILED
+    return EXIT_OK
+
+
+def combine(folders: list[Path], out: Path | None, figures: bool,
+            argv: list[str] | None) -> int:
+    """Merge the result rows of several evaluation folders into one set of tables."""
+    from safe_legged_c3bf.evaluation.results import read_csv
+
+    records: list[dict[str, Any]] = []
+    for folder in folders:
+        path = folder / "results.csv"
+        if not path.is_file():
+            print(f"evaluate: --combine: no results.csv in {folder}", file=sys.stderr)
+            return EXIT_USAGE
+        records += read_csv(path)
+    ids = [r["run_id"] for r in records]
+    if len(set(ids)) != len(ids):
+        print("evaluate: --combine: the folders share run ids (the same evaluation twice?)",
+              file=sys.stderr)
+        return EXIT_USAGE
+    out = (out or Path("runs") / f"evaluation-combined-{datetime.now():%Y%m%d-%H%M%S}").resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    notes = [
+        f"Combined from {', '.join(str(f) for f in folders)} ({len(records)} runs); "
+        f"{datetime.now().strftime('%Y-%m-%d %H:%M')}.",
+        "Command: `python -m safe_legged_c3bf.evaluate "
+        + " ".join(argv if argv is not None else sys.argv[1:]) + "`",
+    ]
+    paths = _write_results(attach_overhead(records), out, title="Evaluation: combined",
+                           notes=notes, figures=figures)
+    _print_summary(records, paths)
     return EXIT_OK
 
 

@@ -433,3 +433,26 @@ def test_ci_suite_end_to_end(tmp_path):
     assert row["goal_reached"] is True, detail
     assert row["min_clearance"] > 0.0, detail
     assert (out / "results.md").is_file()
+
+
+def test_combine_merges_evaluation_folders(tmp_path):
+    from safe_legged_c3bf.evaluate import main
+
+    recs = synthetic_records()
+    quad = [r for r in recs if r["robot"] == "quadruped"]
+    rest = [r for r in recs if r["robot"] != "quadruped"]
+    assert quad and rest
+    write_results(quad, tmp_path / "q", figures=False)
+    write_results(rest, tmp_path / "b", figures=False)
+    out = tmp_path / "all"
+    code = main(["--combine", str(tmp_path / "q"), str(tmp_path / "b"), "--out", str(out),
+                 "--no-figures"])
+    assert code == 0
+    back = read_csv(out / "results.csv")
+    assert sorted(r["run_id"] for r in back) == sorted(r["run_id"] for r in recs)
+    row = [r for r in back if r["run_id"] == "a_True_obstacles"][0]
+    assert row["overhead_s"] == pytest.approx(3.0)  # recomputed across the merged rows
+    # The same folder twice is refused (duplicate run ids), as is a folder without results.
+    assert main(["--combine", str(tmp_path / "q"), str(tmp_path / "q"), "--out",
+                 str(tmp_path / "x"), "--no-figures"]) == 2
+    assert main(["--combine", str(tmp_path), "--out", str(tmp_path / "y")]) == 2
