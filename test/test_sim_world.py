@@ -226,6 +226,66 @@ def test_min_distance_is_exact_when_near():
         assert 0.1 < gt.min_distance <= 0.2 + 0.01
 
 
+
+
+def _brute_force_ground_truth(sim: Simulation) -> tuple[float, set[str]]:
+    """Min distance (search to the cutoff) and contacts (all robot contacts), as before."""
+    cfg = sim.scenario.ground_truth
+    robot, client = sim.robot.body_id, sim.client
+    distance = math.inf
+    for obstacle in sim.obstacles:
+        points = pybullet.getClosestPoints(
+            robot, obstacle.body_id, cfg.distance_cutoff, physicsClientId=client
+        )
+        distance = min([distance] + [p[8] for p in points])
+    ids = {o.body_id: o.id for o in sim.obstacles}
+    touching = {
+        ids[p[2]] for p in pybullet.getContactPoints(bodyA=robot, physicsClientId=client)
+        if p[2] in ids and p[8] <= cfg.contact_tolerance
+    }
+    return distance, touching
+
+
+def test_ground_truth_shortcuts_match_brute_force():
+    # Exact queries at every step for every obstacle within the cutoff: the minimum distance
+    # must equal a search of every link pair out to the cutoff, and the contacts those of
+    # all the robot's contact points, at every step (approach, touch, scrape, leave, and a
+    # teleport that breaks the speed bound the query searches with).
+    obstacles = [
+        {"id": "sweeper", "position": [1.5, -0.24], "semi_axes": [0.1, 0.1], "extent": 1.0,
+         "motion": {"type": "constant_velocity", "velocity": [-1.5, 0.0], "start_time": 0.2}},
+        {"id": "walker", "position": [0.28, 0.8], "semi_axes": [0.15, 0.1], "orientation": 0.4,
+         "motion": {"type": "waypoints", "waypoints": [[0.28, -0.8]], "speed": 0.8,
+                    "mode": "pingpong"}},
+        {"id": "bar", "plane": "horizontal", "position": [0.3, 0.0, 0.42],
+         "semi_axes": [0.05, 0.05], "extent": 3.0},
+        {"id": "far", "position": [4.0, 3.0], "semi_axes": [0.3, 0.3]},
+    ]
+    sc = scenario(obstacles, duration=2.0, ground_truth={
+        "exact_distance_below": 1.0, "max_check_interval": 0.001, "collision_debounce": 0.0,
+    })
+    touched = set()
+    with Simulation(sc) as sim:
+        command = stand_command(sim)
+        for k in range(1500):
+            if k % 20 == 0:
+                sim.set_command(command)
+            if k == 700:  # far faster than max_closing_speed: away from the obstacles
+                pos, quat = pybullet.getBasePositionAndOrientation(sim.robot.body_id)
+                pybullet.resetBasePositionAndOrientation(
+                    sim.robot.body_id, (pos[0] - 0.4, pos[1], pos[2]), quat
+                )
+            sim.step()
+            gt = sim.ground_truth
+            distance, touching = _brute_force_ground_truth(sim)
+            if distance < sc.ground_truth.distance_cutoff:
+                assert gt.min_distance_exact and gt.min_distance == distance, k
+            assert set(gt.contact_obstacle_ids) == touching, k
+            assert gt.in_collision == bool(touching)
+            touched |= touching
+        monitor = sim.monitor
+        assert touched == {"sweeper", "walker"}
+        assert monitor.distance_queries > 2000 and monitor.distance_requeries >= 1
 def test_fall_detection():
     sc = scenario(ground_truth={"fall_min_height": 0.2})
     with Simulation(sc) as sim:

@@ -3,7 +3,9 @@
 Evaluated after every physics step:
 
 * contact: PyBullet contact points between any robot link and any obstacle body with a
-  distance <= ``contact_tolerance`` (one ``getContactPoints`` call for the robot);
+  distance <= ``contact_tolerance``, read with one ``getContactPoints`` call per
+  robot-obstacle pair whose cheap lower bound (below) is at most ``contact_tolerance`` +
+  ``CONTACT_MARGIN``: beyond that no contact is possible;
 * collision events: rising edges of contact per obstacle, debounced: touching an obstacle
   counts as a new event only if the robot had not touched that obstacle for at least
   ``collision_debounce`` s (contacts flicker while a foot scrapes along a pillar);
@@ -12,13 +14,19 @@ Evaluated after every physics step:
   distance) is evaluated for every obstacle at every step; when it is below
   ``distance_cutoff`` the exact distance is computed with ``getClosestPoints`` (negative when
   penetrating), otherwise the bound is reported. The exact query is the expensive part
-  (~50-150 us per obstacle for the A1), so it is repeated at every step only while the
-  distance is below ``exact_distance_below``; farther away it is repeated after the number
-  of steps in which the distance could, at ``max_closing_speed`` plus the obstacle's speed,
-  fall to ``exact_distance_below`` (at most ``max_check_interval``), and the last value is
-  held in between. The run's minimum distance is therefore exact whenever it is below
+  (one GJK query per robot link whose bounding box is within the query's search distance of
+  the obstacle's), so it is repeated at every step only while the distance is below
+  ``exact_distance_below``; farther away it is repeated after the number of steps in which
+  the distance could, at ``max_closing_speed`` plus the obstacle's speed, fall to
+  ``exact_distance_below`` (at most ``max_check_interval``), and the last value is held in
+  between. The run's minimum distance is therefore exact whenever it is below
   ``exact_distance_below`` (given that speed bound), and never over-estimated when it is
-  beyond ``distance_cutoff``;
+  beyond ``distance_cutoff``. Each exact query searches only as far as the distance can have
+  grown since the previous one at that speed (plus ``SEARCH_SLACK``), which skips the links
+  that are farther away; PyBullet returns every link pair closer than the search distance,
+  each with its exact distance, so the minimum is the same as with a search to
+  ``distance_cutoff``. Should the speed bound not hold and nothing be found, the query is
+  repeated out to ``distance_cutoff``: the result never depends on the bound;
 * fall: base height below ``fall_min_height`` or base z axis tilted more than
   ``fall_max_tilt`` from vertical (flat ground at z = 0).
 """
@@ -35,6 +43,13 @@ import pybullet
 from safe_legged_c3bf.sim.obstacles import VERTICAL, KinematicObstacle
 from safe_legged_c3bf.sim.robots import RobotHandle
 from safe_legged_c3bf.sim.scenario import GroundTruthConfig
+
+#: Contact points of an obstacle are read while its distance lower bound is at most
+#: ``contact_tolerance`` + this (m): a margin for the bodies' motion within one physics step
+#: (contact points come from the step's collision detection, the bound from its end).
+CONTACT_MARGIN = 0.05
+#: Added to the search distance of an exact distance query beyond the speed bound (m).
+SEARCH_SLACK = 0.01
 
 
 @dataclass(frozen=True)
@@ -142,6 +157,10 @@ class GroundTruthMonitor:
         self._updates = 0
         self._next_check = [0] * len(self.obstacles)
         self._held = [(math.inf, False)] * len(self.obstacles)
+        self._checked_at = [0] * len(self.obstacles)  # update of the last exact query
+        #: Exact distance queries made, and how many had to be repeated out to the cutoff.
+        self.distance_queries = 0
+        self.distance_requeries = 0
         self._closing_speed = [config.max_closing_speed + o.max_speed for o in self.obstacles]
         self._max_interval = max(1, int(config.max_check_interval / self._dt))
         self._geometry = [
@@ -169,14 +188,21 @@ class GroundTruthMonitor:
         """Collision events so far."""
         return len(self.stats.collision_events)
 
-    def _contacts(self) -> dict[str, set[str]]:
+    def _contacts(self, bounds: Sequence[float]) -> dict[str, set[str]]:
+        """Obstacle id -> robot links in contact, for the obstacles that can be touched."""
         found: dict[str, set[str]] = {}
         tolerance = self.config.contact_tolerance
-        points = pybullet.getContactPoints(bodyA=self.robot.body_id, physicsClientId=self.client)
-        for point in points:
-            obstacle = self._by_body.get(point[2])
-            if obstacle is not None and point[8] <= tolerance:
-                found.setdefault(obstacle.id, set()).add(self._link_names.get(point[3], "?"))
+        gate = tolerance + CONTACT_MARGIN
+        robot, client, names = self.robot.body_id, self.client, self._link_names
+        for obstacle, bound in zip(self.obstacles, bounds, strict=True):
+            if bound > gate:
+                continue
+            points = pybullet.getContactPoints(
+                bodyA=robot, bodyB=obstacle.body_id, physicsClientId=client
+            )
+            for point in points:
+                if point[8] <= tolerance:
+                    found.setdefault(obstacle.id, set()).add(names.get(point[3], "?"))
         return found
 
     def _lower_bounds(
@@ -210,13 +236,7 @@ class GroundTruthMonitor:
                 distance, exact = bound, False
                 self._next_check[i] = 0  # check at once when it comes within the cutoff
             elif self._updates >= self._next_check[i]:
-                points = pybullet.getClosestPoints(
-                    self.robot.body_id, obs.body_id, cutoff, physicsClientId=self.client
-                )
-                if points:
-                    distance, exact = min(p[8] for p in points), True
-                else:  # no link pair closer than the cutoff
-                    distance, exact = cutoff, False
+                distance, exact = self._query_distance(i, obs.body_id, cutoff)
                 # The distance cannot fall below exact_distance_below before this many steps.
                 margin = distance - cfg.exact_distance_below
                 steps = int(margin / (self._closing_speed[i] * self._dt)) if margin > 0 else 1
@@ -227,6 +247,26 @@ class GroundTruthMonitor:
             if distance < best:
                 best, best_exact, best_id = distance, exact, obs.id
         return best, best_exact, best_id
+
+    def _query_distance(self, i: int, body: int, cutoff: float) -> tuple[float, bool]:
+        """Exact distance to obstacle ``i`` (or (cutoff, False) when at least that far)."""
+        self.distance_queries += 1
+        known, exact = self._held[i]
+        search = cutoff
+        if exact:  # how far it can be now, at the speed bound, since the last query
+            elapsed = (self._updates - self._checked_at[i]) * self._dt
+            grown = known + self._closing_speed[i] * elapsed + SEARCH_SLACK
+            if grown < cutoff:
+                search = max(grown, SEARCH_SLACK)
+        self._checked_at[i] = self._updates
+        robot, client = self.robot.body_id, self.client
+        points = pybullet.getClosestPoints(robot, body, search, physicsClientId=client)
+        if not points and search < cutoff:  # moved faster than the bound: search it all
+            self.distance_requeries += 1
+            points = pybullet.getClosestPoints(robot, body, cutoff, physicsClientId=client)
+        if points:
+            return min(p[8] for p in points), True
+        return cutoff, False  # no link pair closer than the cutoff
 
     def update(self, t: float, centers: Sequence[Sequence[float]]) -> None:
         """Evaluate the world after the physics step that ended at sim time ``t``.
@@ -257,9 +297,7 @@ class GroundTruthMonitor:
             stats.min_base_height = height
 
         bounds = self._lower_bounds(pos, centers)
-        # No contact is possible while every bound exceeds the contact tolerance.
-        tolerance = cfg.contact_tolerance
-        contacts = self._contacts() if any(b <= tolerance for b in bounds) else {}
+        contacts = self._contacts(bounds)
         if contacts or self._in_contact:
             for obstacle_id, links in contacts.items():
                 if obstacle_id not in self._in_contact:
