@@ -52,6 +52,13 @@ class FilterParams:
         tie_break: each vertical obstacle's circle is shifted this far (m) to the robot's
             right and grown by as much, so that dead-ahead obstacles are passed on the left
             instead of only braked for (see ``obstacle_input.to_c3bf_obstacles``).
+        deadlock_speed: the robot is deadlocked when the filter holds its commanded forward
+            speed below this (m/s) while the reference asks for more (unicycle model).
+        deadlock_yaw_rate: yaw rate (rad/s) the reference gets while deadlocked, to the side
+            that passes the nearest obstacle on the tie-break side (0: never). At rest the
+            barrier h is 0 and blind to steering, so only a turn in place lets the body point
+            leave the collision cone; the QP still filters the turn.
+        deadlock_memory: how long (s) the chosen side is kept after the last deadlocked cycle.
 
     """
 
@@ -85,6 +92,9 @@ class FilterParams:
     reference_timeout: float = 0.5
     horizontal_y_margin: float = 0.1
     tie_break: float = 0.03
+    deadlock_speed: float = 0.05
+    deadlock_yaw_rate: float = 0.5
+    deadlock_memory: float = 3.0
 
     def validate(self) -> FilterParams:
         """Return self if valid, else raise ValueError naming the bad parameter."""
@@ -98,6 +108,7 @@ class FilterParams:
         )
         non_negative = (
             "offset", "safety_margin", "max_reverse_speed", "horizontal_y_margin", "tie_break",
+            "deadlock_speed", "deadlock_yaw_rate", "deadlock_memory",
         )
         for name in positive:
             value = getattr(self, name)

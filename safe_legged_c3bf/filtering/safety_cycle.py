@@ -109,6 +109,11 @@ class SafetyFilterCycle:
         self._v = np.zeros(4)
         self._initialised = False
         self._last_t: float | None = None
+        # Deadlock resolution: turn side (+1 left, -1 right, 0 none), when last deadlocked,
+        # and whether the last cycle's QP changed the command.
+        self._detour_side = 0
+        self._detour_time = -math.inf
+        self._held_back = False
 
     def _build(self) -> None:
         p = self.params
@@ -229,7 +234,9 @@ class SafetyFilterCycle:
             obstacles, t - obstacles_time, float(pos[1]), p.robot_width, p.robot_height,
             p.safety_margin, p.horizontal_y_margin, yaw, p.tie_break,
         )
+        deadlocked = False
         if p.model == "unicycle":
+            deadlocked = self._deadlock_turn(t, ref_arr, circles, pos, yaw)
             state = np.array([pos[0], pos[1], yaw, v[0], v[3], pos[2], v[2]])
             u_ref = np.array(
                 [
@@ -276,12 +283,47 @@ class SafetyFilterCycle:
             new_v[3] = ref_arr[3]  # yaw does not move the holonomic body point
         self._v = self._clip_velocity(new_v)
         status = _FROM_FILTER[result.status]
+        self._held_back = status is not CycleStatus.INACTIVE
         text = result.message or status.name.lower()
+        if deadlocked:
+            text += f" (deadlock: turning {'left' if self._detour_side > 0 else 'right'})"
         if ref_stale:
             text += " (reference stale: zero)"
         return CycleOutput(
             self.commanded, status, text, ref, ref_stale, u_ref, u.copy(), result, ids
         )
+
+    def _deadlock_turn(
+        self, t: float, ref_arr: np.ndarray, circles, pos: np.ndarray, yaw: float  # noqa: ANN001
+    ) -> bool:
+        """Deadlock resolution: replace the reference yaw rate by a turn in place if stuck.
+
+        Deadlocked: the filter changed the last command, holds the commanded forward speed
+        below ``deadlock_speed`` and the reference asks for more. At rest every barrier is 0
+        and blind to steering, so the QP keeps the robot still (an undesired equilibrium of
+        CBF-QPs). The reference (not the constraint) then turns towards the side that passes
+        the nearest vertical obstacle as the tie-break does; the QP still filters the turn.
+        The side is kept for ``deadlock_memory`` s so noise cannot make the robot dither.
+        Modifies ``ref_arr`` in place; returns True when it did.
+        """
+        p = self.params
+        if p.deadlock_yaw_rate <= 0.0:
+            return False
+        stuck = (self._held_back and self._v[0] < p.deadlock_speed
+                 and ref_arr[0] > p.deadlock_speed)
+        if not stuck:
+            return False
+        if self._detour_side == 0 or t - self._detour_time > p.deadlock_memory:
+            vertical = np.asarray(circles.plane) == 0
+            if not vertical.any():
+                return False
+            rel = circles.center[vertical] - pos[:2]
+            nearest = rel[int(np.argmin(np.linalg.norm(rel, axis=1) - circles.radius[vertical]))]
+            lateral = -math.sin(yaw) * nearest[0] + math.cos(yaw) * nearest[1]  # + = left
+            self._detour_side = -1 if lateral > 0.0 else 1
+        self._detour_time = t
+        ref_arr[3] = self._detour_side * p.deadlock_yaw_rate
+        return True
 
     def _bounds(
         self, v: np.ndarray, measured: np.ndarray, z: float, dt: float, idx: tuple[int, ...]
