@@ -92,13 +92,14 @@ def test_filter_is_the_exact_qp_optimum(model, full_w):
     auto = SafetyFilter(model, weights=W, u_min=lo, u_max=hi)
     qp = SafetyFilter(model, weights=W, u_min=lo, u_max=hi, method="qp")
     yaw = 0.3 if model.needs_yaw else None
-    seen = set()
+    seen, seen_qp = set(), set()
     for trial in range(120):
         n = 1 + trial % 5
         x, u_ref, obs = random_problem(rng, model, n)
         ra = auto.filter(x, u_ref, obs, yaw=yaw)
         rq = qp.filter(x, u_ref, obs, yaw=yaw)
         seen.add((ra.status, ra.solver))
+        seen_qp.add((rq.status, rq.solver))
         t = terms_for(auto, x, obs, yaw)
         G, b = t.lg_h, -(t.lf_h + auto.gamma * t.h)
         u_bf, cost = brute_force_qp(G, b, u_ref, W, lo, hi)
@@ -113,8 +114,10 @@ def test_filter_is_the_exact_qp_optimum(model, full_w):
             got = (r.u_safe - u_ref) @ W @ (r.u_safe - u_ref)
             assert got <= cost + 1e-7 * (1 + cost)
             np.testing.assert_allclose(r.u_safe, u_bf, atol=1e-5)
+    # Every path was exercised: closed form (one obstacle), active set (auto), OSQP (qp).
     assert (FilterStatus.ACTIVE, "closed_form") in seen
-    assert (FilterStatus.ACTIVE, "osqp") in seen
+    assert (FilterStatus.ACTIVE, "active_set") in seen
+    assert (FilterStatus.ACTIVE, "osqp") in seen_qp
 
 
 def test_closed_form_function_matches_paper_formula():
@@ -130,7 +133,7 @@ def test_closed_form_function_matches_paper_formula():
         assert lf + a @ u + h >= -1e-12
 
 
-def test_single_obstacle_uses_closed_form_and_bounds_fall_back_to_osqp():
+def test_single_obstacle_uses_closed_form_and_bounds_fall_back_to_active_set():
     model = UnicycleModel(offset=0.2)
     obs = Obstacles.vertical([[3.0, 0.1]], [0.6])
     x = np.array([0.0, 0.0, 0.0, 1.0, 0.0])
@@ -138,11 +141,16 @@ def test_single_obstacle_uses_closed_form_and_bounds_fall_back_to_osqp():
     r = wide.filter(x, [0.5, 0.0], obs)
     assert r.status is FilterStatus.ACTIVE and r.solver == "closed_form"
     assert r.active.tolist() == [True] and abs(r.constraint[0]) < 1e-9
-    # The closed form needs |alpha| > 0.1 here: with a tight alpha limit OSQP must take over.
+    # The closed form needs |alpha| > 0.1 here: with a tight alpha limit the active-set
+    # method takes over (and agrees with OSQP).
     tight = SafetyFilter(model, u_min=[-5, -0.05], u_max=[5, 0.05])
     r2 = tight.filter(x, [0.5, 0.0], obs)
-    assert r2.solver == "osqp" and r2.status is FilterStatus.ACTIVE
+    assert r2.solver == "active_set" and r2.status is FilterStatus.ACTIVE
     assert r2.bounds_active.any() and r2.constraint[0] >= -1e-9
+    tight_qp = SafetyFilter(model, u_min=[-5, -0.05], u_max=[5, 0.05], method="qp")
+    r3 = tight_qp.filter(x, [0.5, 0.0], obs)
+    assert r3.solver == "osqp" and r3.status is FilterStatus.ACTIVE
+    np.testing.assert_allclose(r2.u_safe, r3.u_safe, atol=1e-6)
 
 
 def test_reference_passes_unchanged_when_safe():

@@ -12,24 +12,27 @@ solves
 Solution strategy (every path returns the exact optimum of that problem, or says otherwise):
 
 1. ``u_ref`` satisfies every constraint and bound: returned unchanged, ``INACTIVE``.
-2. Closed form (the paper's KKT formula generalised to ``W``): for a violated constraint
-   ``a u >= b`` the minimiser over that half-space alone is
+2. One obstacle: closed form (the paper's KKT formula generalised to ``W``): for a violated
+   constraint ``a u >= b`` the minimiser over that half-space alone is
    ``u* = u_ref + W^-1 a^T (b - a u_ref) / (a W^-1 a^T)``. The half-space contains the
-   feasible set, so if ``u*`` satisfies *all* constraints and bounds it is the optimum. This
-   is checked; with one obstacle and no active bound it always applies. (For diagonal ``W``
-   the same argument is used for the clipped reference.)
-3. Otherwise OSQP (osqp 1.x). One solver object per problem size is set up once with a fixed
-   sparsity pattern and then only updated (``q``, ``l``, ``u``, ``Ax``) and warm started.
-   Constraint rows are scaled to unit norm (same feasible set, better conditioning); rows
-   that cannot bind inside the input box are disabled. The solution is polished and
-   verified; if a row is still violated beyond 1e-9 (scaled units) it is re-solved with
-   tighter tolerances.
-4. Infeasible (some constraint cannot hold within the limits, or OSQP reports primal
-   infeasibility): a relaxed QP with one non-negative slack ``d_i`` per constraint,
+   feasible set, so if ``u*`` is within the limits it is the optimum (``'closed_form'``).
+3. Otherwise (several obstacles, or an active limit) the exact dual active-set method of
+   Goldfarb and Idnani over the rows and the finite limits (``active_set.solve_box_qp``;
+   ``'active_set'``). Its first step is the closed-form projection onto the most violated
+   row; it ends with the optimum (KKT point of a strictly convex QP) or with a Farkas
+   certificate of infeasibility (then step 5). Constraint rows are scaled to unit norm (same
+   feasible set, better conditioning). The answer is verified (every row within 1e-9).
+4. Fallback, and always with ``method='qp'``: OSQP (osqp 1.x). One solver object per problem
+   size is set up once with a fixed sparsity pattern and then only updated (``q``, ``l``,
+   ``u``, ``Ax``) and warm started. Rows that cannot bind inside the input box are
+   disabled. The solution is polished and verified; if a row is still violated beyond 1e-9
+   (scaled units) it is re-solved with tighter tolerances.
+5. Infeasible (some constraint cannot hold within the limits: a Farkas certificate, or OSQP
+   reports primal infeasibility): a relaxed QP with one non-negative slack ``d_i`` per constraint,
    ``a_i u + d_i >= b_i``, cost ``+ rho (sum d_i^2 + sum d_i)``: ``RELAXED``.
-5. Body point inside an inflated circle (``||p_rel|| <= r``): ``EMERGENCY`` action,
+6. Body point inside an inflated circle (``||p_rel|| <= r``): ``EMERGENCY`` action,
    brake and accelerate away from the obstacle centre(s).
-6. Solver failure or non-finite intermediate numbers: ``FAILSAFE`` brake input.
+7. Solver failure or non-finite intermediate numbers: ``FAILSAFE`` brake input.
 
 NaN/Inf or wrongly shaped inputs raise :class:`~.errors.InvalidInputError` before any work.
 """
@@ -45,6 +48,7 @@ import numpy as np
 import osqp
 import scipy.sparse as sp
 
+from .active_set import solve_box_qp
 from .barrier import DEFAULT_V_EPS
 from .errors import InvalidInputError
 from .geometry import Obstacles
@@ -58,7 +62,6 @@ _OSQP_INF = 1e30
 _EMERGENCY_REL_CLEARANCE = 1e-9  # ||p||^2 - r^2 <= 1e-9 r^2  =>  emergency
 _ROW_ZERO = 1e-12  # ||Lg h|| below this: the constraint does not depend on u
 _FEAS_TOL = 1e-9  # accepted violation of a unit-norm row [input units]
-_CF_TOL = 1e-10  # violation tolerance when accepting a closed-form candidate
 _ACTIVE_TOL = 1e-7  # scaled constraint value below which a row counts as binding
 
 _INFEASIBLE = (
@@ -251,8 +254,9 @@ class SafetyFilter:
         u_max: ``(m,)`` upper input limits (None: unbounded).
         v_eps: Relative-speed regularisation [m/s] of the barrier (see ``barrier``).
         margin: Extra radius [m] added to every obstacle for the constraints (see below).
-        method: ``'auto'`` (closed form whenever it is provably the optimum, else OSQP) or
-            ``'qp'`` (always OSQP once the reference is infeasible; for tests/benchmarks).
+        method: ``'auto'`` (closed form for one obstacle, the exact active-set method
+            otherwise, OSQP as fallback) or ``'qp'`` (always OSQP once the reference is
+            infeasible; for tests/benchmarks).
         relax_penalty: Penalty ``rho`` on slacks of the relaxed QP, relative to the largest
             eigenvalue of ``W``.
         brake_gain: Velocity damping gain [1/s] of the EMERGENCY and FAILSAFE inputs.
@@ -310,7 +314,6 @@ class SafetyFilter:
         self.weights = w
         self._w_inv = np.linalg.inv(w)
         self._w_inv_l = self._w_inv.tolist()
-        self._w_diag = bool(np.all(w == np.diag(np.diag(w))))
         lo, hi = _check_bounds(u_min, u_max, m)
         self.u_min, self.u_max = lo, hi
         self._bounds = _Bounds(lo, hi, lo.tolist(), hi.tolist())
@@ -476,8 +479,7 @@ class SafetyFilter:
             return self._emergency(x, yaw, kin, terms, obs.plane, inside, c0, t0)
         lo_b, hi_b = self._cur.lo, self._cur.hi
         in_box = bool(((u0 >= lo_b) & (u0 <= hi_b)).all())
-        g_u0 = G @ u0
-        if in_box and (g_u0 + c0 >= 0.0).all():
+        if in_box and (G @ u0 + c0 >= 0.0).all():
             return self._result(u0.copy(), FilterStatus.INACTIVE, terms, G, c0, "none", t0)
 
         norms = np.sqrt(np.einsum("ij,ij->i", G, G))
@@ -485,20 +487,33 @@ class SafetyFilter:
         scale = np.where(dead, 1.0, norms)
         Gn = G / scale[:, None]
         bn = -c0 / scale  # scaled constraint: Gn u >= bn
+        hopeless = dead & (c0 < 0.0)
 
-        if self.method == "auto":
-            u_cf = self._closed_form(u0, Gn, bn, dead, g_u0 / scale, in_box)
-            if u_cf is not None:
-                return self._result(u_cf, FilterStatus.ACTIVE, terms, G, c0, "closed_form", t0)
+        if self.method == "auto" and not hopeless.any():
+            # Exact dual active-set solve (its first step is the closed-form projection).
+            live = ~dead if dead.any() else slice(None)
+            sol = solve_box_qp(self._w_inv, u0, Gn[live], bn[live], lo_b, hi_b)
+            if sol.u is not None:
+                u = np.clip(sol.u, lo_b, hi_b)
+                if self._verify(u, Gn, np.where(dead, -_OSQP_INF, bn)):
+                    return self._result(
+                        u, FilterStatus.ACTIVE, terms, G, c0, "active_set", t0, norms=norms
+                    )
+            infeasible = sol.infeasible  # a Farkas certificate: go straight to the relaxed QP
+        else:
+            infeasible = False
 
-        # Which rows can bind inside the box, which cannot hold at all?
+        # OSQP. Which rows can bind inside the box, which cannot hold at all?
         with np.errstate(invalid="ignore"):
             row_min = np.where(Gn > 0, Gn * lo_b, np.where(Gn < 0, Gn * hi_b, 0.0)).sum(axis=1)
             row_max = np.where(Gn > 0, Gn * hi_b, np.where(Gn < 0, Gn * lo_b, 0.0)).sum(axis=1)
-        hopeless = dead & (c0 < 0.0)
         redundant = dead | (bn <= row_min)
         lo_rows = np.where(redundant, -_OSQP_INF, bn)
-        infeasible = hopeless.any() or bool((bn > row_max + _FEAS_TOL)[~redundant].any())
+        infeasible = (
+            infeasible
+            or hopeless.any()
+            or bool((bn > row_max + _FEAS_TOL)[~redundant].any())
+        )
         q = -(self.weights @ u0)
         n = len(obs)
         msg = "constraints infeasible within input limits"
@@ -523,31 +538,6 @@ class SafetyFilter:
         if u is None:
             return self._failsafe(x, yaw, n, t0, f"relaxed QP failed ({status_val})", terms, G, c0)
         return self._result(u, FilterStatus.RELAXED, terms, G, c0, "osqp", t0, msg)
-
-    def _closed_form(self, u0, Gn, bn, dead, gn_u0, in_box):
-        """Return the exact optimum if a single-half-space projection is feasible, else None."""
-        lo_b, hi_b = self._cur.lo, self._cur.hi
-        viol = (gn_u0 < bn) & ~dead
-        if (gn_u0 < bn)[dead].any():
-            return None  # a constraint u cannot influence is violated: infeasible
-        cands = []
-        k = np.flatnonzero(viol)
-        if k.size:
-            a = Gn[k]  # (k, m)
-            wa = a @ self._w_inv  # rows of W^-1 a^T (W^-1 symmetric)
-            den = np.einsum("ij,ij->i", a, wa)
-            lam = (bn[k] - gn_u0[k]) / den
-            cands.append(u0 + lam[:, None] * wa)
-        if not in_box and self._w_diag:
-            cands.append(np.clip(u0, lo_b, hi_b)[None, :])
-        if not cands:
-            return None
-        C = np.concatenate(cands) if len(cands) > 1 else cands[0]
-        ok = ((C >= lo_b) & (C <= hi_b)).all(axis=1)
-        ok &= (C @ Gn.T >= bn - _CF_TOL).all(axis=1)
-        if not ok.any():
-            return None
-        return C[int(np.argmax(ok))]
 
     def _verify(self, u, Gn, lo_rows) -> bool:
         return bool(np.isfinite(u).all() and (Gn @ u >= lo_rows - _FEAS_TOL).all())
@@ -589,14 +579,17 @@ class SafetyFilter:
             return None, st
         return np.clip(u, self._cur.lo, self._cur.hi), st
 
-    def _result(self, u, status, terms: BarrierTerms, G, c0, solver, t0, message=""):
+    def _result(
+        self, u, status, terms: BarrierTerms, G, c0, solver, t0, message="", norms=None
+    ):
         if not np.isfinite(u).all():
             raise FloatingPointError("non-finite filtered input")  # -> FAILSAFE
         con = c0 + G @ u
         if status is FilterStatus.INACTIVE:
             active = np.zeros(con.shape, dtype=bool)
         else:
-            norms = np.sqrt(np.einsum("ij,ij->i", G, G))
+            if norms is None:
+                norms = np.sqrt(np.einsum("ij,ij->i", G, G))
             active = con <= _ACTIVE_TOL * np.maximum(norms, 1.0)
         bounds = (u <= self._cur.lo) | (u >= self._cur.hi)
         return FilterResult(

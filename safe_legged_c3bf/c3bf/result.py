@@ -48,7 +48,7 @@ class FilterResult:
         active: ``(n,)`` bool, constraints binding at ``u_safe`` (for EMERGENCY: the
             obstacles the robot is inside).
         bounds_active: ``(m,)`` bool, inputs at ``u_min`` or ``u_max`` after filtering.
-        solver: ``'closed_form'``, ``'osqp'`` or ``'none'``.
+        solver: ``'closed_form'``, ``'active_set'``, ``'osqp'`` or ``'none'``.
         solve_time: Wall-clock time of the whole ``filter`` call [s].
         message: Human-readable detail (empty when nothing noteworthy happened).
 
