@@ -14,11 +14,12 @@ from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import JointState
+from sensor_msgs.msg import Imu, JointState
 
 from safe_legged_c3bf import topics
+from safe_legged_c3bf.base_state import quaternion_to_matrix
 from safe_legged_c3bf.config import config_path
-from safe_legged_c3bf.nodes.ros_common import from_time_msg, qos
+from safe_legged_c3bf.nodes.ros_common import from_time_msg, qos, to_time_msg
 from safe_legged_c3bf.nodes.simulator_node import PARAMETERS, SimulatorNode
 from safe_legged_c3bf.sim.scenario import ScenarioError
 from safe_legged_c3bf_msgs.msg import GroundTruthSafety, MotorCommand, Obstacle, ObstacleArray
@@ -30,10 +31,11 @@ class Probe:
     def __init__(self, executor, sim_node: SimulatorNode, name: str = "probe") -> None:
         self.node = rclpy.create_node(name, context=executor.context_for_nodes)
         executor.add_node(self.node)
-        self.msgs = {key: [] for key in ("clock", "odom", "joints", "detections", "gt",
+        self.msgs = {key: [] for key in ("clock", "odom", "imu", "joints", "detections", "gt",
                                          "gt_obstacles", "diag")}
         for key, topic, cls in (
             ("clock", topics.CLOCK, Clock), ("odom", topics.ODOM, Odometry),
+            ("imu", topics.IMU, Imu),
             ("joints", topics.JOINT_STATES, JointState),
             ("detections", topics.OBSTACLE_DETECTIONS, ObstacleArray),
             ("gt", topics.GROUND_TRUTH_SAFETY, GroundTruthSafety),
@@ -127,12 +129,42 @@ def test_node_publishes_state_and_consumes_commands(ros_executor, tmp_path):
     assert mover.velocity.y == pytest.approx(0.5)
     assert mover.velocity_source == Obstacle.VELOCITY_MEASURED
     assert got["gt"] and not got["gt"][-1].fallen and got["gt"][-1].min_distance > 0.0
+    assert got["gt"][-1].header.frame_id == topics.ODOM_FRAME
+    # Standing still: the IMU's specific force is gravity, upwards, seen from base_link.
+    imu = got["imu"][-1]
+    assert imu.header.frame_id == topics.BASE_FRAME
+    assert from_time_msg(imu.header.stamp) == pytest.approx(2.0)
+    o = imu.orientation
+    up = quaternion_to_matrix([o.x, o.y, o.z, o.w]).T @ [0.0, 0.0, 9.81]
+    force = imu.linear_acceleration
+    assert (force.x, force.y, force.z) == pytest.approx(tuple(up), abs=0.3)
     summary = json.loads(summary_path.read_text())
     assert summary["finished"] and summary["rejected_commands"] == 1
     frames = imageio.mimread(video_path)
     assert len(frames) == 10 and frames[0].shape[:2] == (240, 320)  # 5 fps for 2 s
     assert summary["sim_time"] == pytest.approx(2.0) and not summary["fell"]
     assert summary["collision_count"] == 0 and summary["driver_timeouts"] == 0
+
+
+def test_real_time_factor_paces_physics(ros_executor, tmp_path):
+    scenario = yaml.safe_load(config_path("scenarios", "test_minimal.yaml").read_text())
+    scenario.update(duration=0.5, name="paced")
+    path = tmp_path / "paced.yaml"
+    path.write_text(yaml.safe_dump(scenario))
+    node = make_node(ros_executor, scenario=str(path), real_time_factor=1.0)
+    probe = Probe(ros_executor, node, name="paced_probe")
+    assert wait_for_discovery(ros_executor, probe.pub)
+    probe.answer = True
+    probe.pub.publish(probe.command(to_time_msg(0.0)))
+    assert spin_until(ros_executor, lambda: node.finished, 20)
+    summary = node.summary()
+    # Never ahead of the schedule by more than one 4 ms state period of sim time; behind it
+    # only as far as a busy machine makes it.
+    assert 0.05 < summary["achieved_real_time_factor"] <= 0.5 / (0.5 - 0.004)
+    assert summary["commands_received"] > 10
+    for n in (node, probe.node):
+        ros_executor.remove_node(n)
+        n.destroy_node()
 
 
 def _lockstep_run(executor, scenario_path: str, summary_path: str):

@@ -61,7 +61,6 @@ import traceback
 from collections.abc import Callable
 from typing import Any
 
-import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor
@@ -74,12 +73,11 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import Imu, JointState
 
 from safe_legged_c3bf import topics
-from safe_legged_c3bf.base_state import quaternion_to_matrix
 from safe_legged_c3bf.nodes.ros_common import diagnostic_status, qos, run_node, to_time_msg
 from safe_legged_c3bf.sim.motor_driver import DriverMode
 from safe_legged_c3bf.sim.obstacles import ObstacleState
 from safe_legged_c3bf.sim.scenario import ScenarioError
-from safe_legged_c3bf.sim.world import Simulation
+from safe_legged_c3bf.sim.world import Simulation, rotate, rotate_inverse
 from safe_legged_c3bf_msgs.msg import GroundTruthSafety, MotorCommand, Obstacle, ObstacleArray
 
 #: Node parameters: name -> (default, description with units). config/simulator.yaml mirrors it.
@@ -228,7 +226,11 @@ class SimulatorNode(Node):
         self._joints.name = sim.joint_names
         self._imu = Imu()
         self._imu.header.frame_id = topics.BASE_FRAME
-        self._last_world_velocity: tuple[float, np.ndarray] | None = None
+        self._last_world_velocity: tuple[float, tuple[float, float, float]] | None = None
+        self._gravity = float(sim.scenario.physics.gravity)
+        self._clock = ClockMsg()
+        self._gt_safety = GroundTruthSafety()
+        self._gt_safety.header.frame_id = topics.ODOM_FRAME
 
         self._gt_obstacles: ObstacleArray | None = None
         self._moving = [i for i, o in enumerate(sim.obstacles) if o.moving]
@@ -473,23 +475,37 @@ class SimulatorNode(Node):
                 self._await_stamp = None
                 self._anchor = (now, self._sim.time)
             if self._rtf > 0.0:
-                assert self._anchor is not None
-                wall0, sim0 = self._anchor
-                due = wall0 + (self._sim.time - sim0) / self._rtf  # wall time of this period
-                if due > now:
-                    return "sleep", due - now
-                if now - due > self._max_lag:  # cannot keep up: stop catching up
+                delay = self._pacing_delay(now)
+                if delay > 0.0:
+                    return "sleep", delay
+                if -delay > self._max_lag:  # cannot keep up: stop catching up
                     self._anchor = (now, self._sim.time)
             self._advance(self._steps_to_boundary())
-            return ("stop", 0.0) if self._finished else ("go", 0.0)
+            if self._finished:
+                return "stop", 0.0
+            if self._rtf > 0.0 and self._await_stamp is None:
+                # Sleep until the next period is due right away; the commands that arrive
+                # meanwhile are taken when it starts.
+                delay = self._pacing_delay(time.monotonic())
+                if delay > 0.0:
+                    return "sleep", delay
+            return "go", 0.0
+
+    def _pacing_delay(self, now: float) -> float:
+        """Wall time (s) until the period starting at the current sim time is due (< 0: late)."""
+        assert self._anchor is not None
+        wall0, sim0 = self._anchor
+        return wall0 + (self._sim.time - sim0) / self._rtf - now
 
     def _steps_to_boundary(self) -> int:
         return self._state_every - self._sim.step_count % self._state_every
 
     def _advance(self, steps: int) -> None:
         sim = self._sim
-        for _ in range(steps):
-            if not self._lockstep:  # lockstep: commands only between periods
+        for i in range(steps):
+            # Lockstep: commands only between periods. The first step's commands were just
+            # taken by the caller.
+            if i and not self._lockstep:
                 self._drain_commands()
             sim.step(1)
             k = sim.step_count
@@ -526,10 +542,12 @@ class SimulatorNode(Node):
         sim = self._sim
         stamp = to_time_msg(sim.time)
         self._last_state_stamp = _stamp_ns(stamp)
-        if sim.step_count % self._clock_every == 0 or self._waiting:
-            self._pub_clock.publish(ClockMsg(clock=stamp))
+        k, waiting = sim.step_count, self._waiting
+        if waiting or k % self._clock_every == 0:
+            self._clock.clock = stamp
+            self._pub_clock.publish(self._clock)
         position, orientation, linear, angular = sim.base_pose_twist()
-        if sim.step_count % self._odom_every == 0 or self._waiting:
+        if waiting or k % self._odom_every == 0:
             odom = self._odom
             odom.header.stamp = stamp
             pose, twist = odom.pose.pose, odom.twist.twist
@@ -551,22 +569,26 @@ class SimulatorNode(Node):
         self._pub_joints.publish(msg)
 
     def _publish_imu(self, stamp: Any, orientation, linear, angular) -> None:  # noqa: ANN001
-        """/imu: orientation, angular velocity and specific force, in base_link."""
+        """/imu: orientation, angular velocity and specific force, in base_link.
+
+        The specific force is R^T (a + g), a the finite difference of the world-frame velocity
+        of base_link between two states (zero at the first). Plain floats: this runs at the
+        state rate, where numpy's per-call overhead for 3-vectors costs more than the math.
+        """
         imu = self._imu
         imu.header.stamp = stamp
         o = imu.orientation
         o.x, o.y, o.z, o.w = orientation
         imu.angular_velocity.x, imu.angular_velocity.y, imu.angular_velocity.z = angular
-        rot = quaternion_to_matrix(np.asarray(orientation))
-        v_world = rot @ np.asarray(linear, dtype=float)
+        vx, vy, vz = rotate(orientation, linear)
         t = self._sim.time
-        accel_world = np.zeros(3)
-        if self._last_world_velocity is not None and t > self._last_world_velocity[0]:
-            accel_world = (v_world - self._last_world_velocity[1]) / (
-                t - self._last_world_velocity[0]
-            )
-        self._last_world_velocity = (t, v_world)
-        f = rot.T @ (accel_world + np.array([0.0, 0.0, self._sim.scenario.physics.gravity]))
+        ax = ay = az = 0.0
+        last = self._last_world_velocity
+        if last is not None and t > last[0]:
+            t0, (ux, uy, uz) = last
+            ax, ay, az = (vx - ux) / (t - t0), (vy - uy) / (t - t0), (vz - uz) / (t - t0)
+        self._last_world_velocity = (t, (vx, vy, vz))
+        f = rotate_inverse(orientation, (ax, ay, az + self._gravity))
         imu.linear_acceleration.x, imu.linear_acceleration.y, imu.linear_acceleration.z = f
         self._pub_imu.publish(imu)
 
@@ -599,9 +621,8 @@ class SimulatorNode(Node):
     def _publish_ground_truth(self) -> None:
         sim = self._sim
         gt = sim.ground_truth
-        msg = GroundTruthSafety()
+        msg = self._gt_safety
         msg.header.stamp = to_time_msg(sim.time)
-        msg.header.frame_id = topics.ODOM_FRAME
         msg.in_collision = gt.in_collision
         msg.collision_count = gt.collision_count
         msg.min_distance = float(gt.min_distance)

@@ -69,10 +69,23 @@ class JointStateSample:
     stamp: float
 
 
-def _rotate_inverse(q: tuple[float, ...], v: tuple[float, ...]) -> tuple[float, float, float]:
+def rotate(q: Sequence[float], v: Sequence[float]) -> tuple[float, float, float]:
+    """Rotate ``v`` by the unit quaternion ``q`` (x, y, z, w); plain floats, no numpy."""
+    x, y, z, w = q
+    # v' = v + 2 w (u x v) + 2 u x (u x v), u = (x, y, z)
+    cx = y * v[2] - z * v[1]
+    cy = z * v[0] - x * v[2]
+    cz = x * v[1] - y * v[0]
+    return (
+        v[0] + 2.0 * (w * cx + y * cz - z * cy),
+        v[1] + 2.0 * (w * cy + z * cx - x * cz),
+        v[2] + 2.0 * (w * cz + x * cy - y * cx),
+    )
+
+
+def rotate_inverse(q: Sequence[float], v: Sequence[float]) -> tuple[float, float, float]:
     """Rotate ``v`` by the inverse of the unit quaternion ``q`` (x, y, z, w)."""
     x, y, z, w = -q[0], -q[1], -q[2], q[3]
-    # v' = v + 2 w (u x v) + 2 u x (u x v), u = (x, y, z)
     cx = y * v[2] - z * v[1]
     cy = z * v[0] - x * v[2]
     cz = x * v[1] - y * v[0]
@@ -324,7 +337,7 @@ class Simulation:
             lin[1] + ang[2] * lx - ang[0] * lz,
             lin[2] + ang[0] * ly - ang[1] * lx,
         )
-        return pos, quat, _rotate_inverse(quat, v), _rotate_inverse(quat, ang)
+        return pos, quat, rotate_inverse(quat, v), rotate_inverse(quat, ang)
 
     def _link_pose(
         self, com: Sequence[float], com_quat: Sequence[float]
