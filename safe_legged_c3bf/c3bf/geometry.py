@@ -204,18 +204,31 @@ class Obstacles:
             np.concatenate([s.plane for s in sets]),
         )
 
+    @classmethod
+    def from_validated(cls, center, velocity, radius, plane) -> Obstacles:
+        """Wrap arrays whose validity the caller guarantees: no copy, no per-array checks.
+
+        For per-cycle sets derived from inputs validated once (e.g. when a message arrives):
+        ``center``/``velocity`` float ``(n, 2)``, ``radius`` float ``(n,)``, all finite,
+        radii > 0, ``plane`` integer ``(n,)`` of :class:`Plane` values. The arrays are made
+        read-only (the caller must not keep writing to them).
+        """
+        new = object.__new__(cls)
+        for name, arr in (
+            ("center", center),
+            ("velocity", velocity),
+            ("radius", radius),
+            ("plane", plane),
+        ):
+            arr.setflags(write=False)
+            object.__setattr__(new, name, arr)
+        return new
+
     def advanced(self, dt: float) -> Obstacles:
         """Return the set with centres moved by ``velocity * dt`` (constant-velocity motion)."""
         if not np.isfinite(dt):
             raise InvalidInputError("dt must be finite")
-        new = object.__new__(Obstacles)  # inputs already validated: skip re-validation
-        c = self.center + self.velocity * float(dt)
-        c.setflags(write=False)
-        for name, arr in (
-            ("center", c),
-            ("velocity", self.velocity),
-            ("radius", self.radius),
-            ("plane", self.plane),
-        ):
-            object.__setattr__(new, name, arr)
-        return new
+        # Inputs already validated: skip re-validation.
+        return Obstacles.from_validated(
+            self.center + self.velocity * float(dt), self.velocity, self.radius, self.plane
+        )

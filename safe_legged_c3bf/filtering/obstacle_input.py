@@ -2,15 +2,21 @@
 
 Frames and units: odom, m, m/s. A VERTICAL obstacle is an ellipse in x-y (extruded along z);
 a HORIZONTAL one an ellipse in x-z extruded along odom y (a bar across the path).
+
+An :class:`ObstacleSet` holds one obstacle list as validated arrays: it is built (and checked)
+once when a list arrives, and :func:`to_c3bf_obstacles` turns it into circles every cycle
+with a few vectorised operations.
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from safe_legged_c3bf.c3bf import Obstacles, Plane
+from safe_legged_c3bf.c3bf import InvalidInputError, Obstacles, Plane
 
 
 @dataclass(frozen=True)
@@ -46,8 +52,88 @@ class ObstacleInput:
         )
 
 
+@dataclass(frozen=True, eq=False)
+class ObstacleSet:
+    """A validated obstacle list as read-only arrays (see :meth:`from_arrays`).
+
+    Attributes:
+        ids: identifiers, in order.
+        plane: ``(n,)`` 0 = VERTICAL, 1 = HORIZONTAL.
+        center: ``(n, 3)`` centres in odom (m).
+        velocity: ``(n, 3)`` velocities in odom (m/s).
+        size: ``(n,)`` largest semi-axis (m): the radius of the circle around the ellipse.
+        extent: ``(n,)`` length along the extrusion axis (m).
+
+    """
+
+    ids: tuple[str, ...]
+    plane: np.ndarray
+    center: np.ndarray
+    velocity: np.ndarray
+    size: np.ndarray
+    extent: np.ndarray
+
+    @classmethod
+    def from_arrays(cls, ids, plane, center, velocity, semi_axes, extent) -> ObstacleSet:
+        """Validate and store one obstacle list.
+
+        Args:
+            ids: ``n`` identifiers.
+            plane: ``(n,)`` plane values.
+            center: ``(n, 3)`` centres (m).
+            velocity: ``(n, 3)`` velocities (m/s).
+            semi_axes: ``(n, 2)`` ellipse semi-axes (m).
+            extent: ``(n,)`` extents (m).
+
+        Raises:
+            InvalidInputError: wrong shapes, a non-finite number, a semi-axis <= 0 or an
+                unknown plane (the same rules as :meth:`ObstacleInput.is_valid`).
+
+        """
+        ids = tuple(str(i) for i in ids)
+        n = len(ids)
+        try:
+            pl = np.asarray(plane, dtype=float).reshape(n)
+            c = np.array(center, dtype=float).reshape(n, 3)
+            v = np.array(velocity, dtype=float).reshape(n, 3)
+            ax = np.asarray(semi_axes, dtype=float).reshape(n, 2)
+            ext = np.array(extent, dtype=float).reshape(n)
+        except (TypeError, ValueError) as exc:
+            raise InvalidInputError(f"obstacle arrays do not match {n} ids: {exc}") from exc
+        ok = (
+            ((pl == 0) | (pl == 1)).all()
+            and np.isfinite(c).all()
+            and np.isfinite(v).all()
+            and np.isfinite(ax).all()
+            and (ax > 0).all()
+            and np.isfinite(ext).all()
+        )
+        if not ok:
+            raise InvalidInputError("obstacle with NaN/Inf, a semi-axis <= 0 or an unknown plane")
+        arrays = (pl.astype(np.intp), c, v, ax.max(axis=1), ext)
+        for arr in arrays:
+            arr.setflags(write=False)
+        return cls(ids, *arrays)
+
+    @classmethod
+    def from_inputs(cls, obstacles: Sequence[ObstacleInput]) -> ObstacleSet:
+        """Validate and store a list of :class:`ObstacleInput`."""
+        return cls.from_arrays(
+            [o.id for o in obstacles],
+            [o.plane for o in obstacles],
+            [o.center for o in obstacles],
+            [o.velocity for o in obstacles],
+            [o.semi_axes for o in obstacles],
+            [o.extent for o in obstacles],
+        )
+
+    def __len__(self) -> int:
+        """Number of obstacles."""
+        return len(self.ids)
+
+
 def to_c3bf_obstacles(
-    obstacles: list[ObstacleInput],
+    obstacles: ObstacleSet | Sequence[ObstacleInput],
     dt_predict: float,
     robot_y: float,
     robot_width: float,
@@ -68,35 +154,40 @@ def to_c3bf_obstacles(
     escaped). Each vertical circle is therefore moved ``tie_break`` m to the robot's right and
     grown by ``tie_break``: the new circle encloses the old one (still safe), and the robot
     consistently passes obstacles on their left.
+
+    ``obstacles`` is best an :class:`ObstacleSet` (validated once); a list of
+    :class:`ObstacleInput` is validated on every call. Raises :class:`InvalidInputError` on
+    invalid obstacles or if the prediction overflows.
     """
-    centers, velocities, radii, planes, ids = [], [], [], [], []
-    for ob in obstacles:
-        c = np.asarray(ob.center, dtype=float) + dt_predict * np.asarray(ob.velocity, dtype=float)
-        v = np.asarray(ob.velocity, dtype=float)
-        a = float(np.max(ob.semi_axes))
-        if ob.plane == int(Plane.VERTICAL):
-            right = (np.sin(robot_yaw), -np.cos(robot_yaw))
-            centers.append((c[0] + tie_break * right[0], c[1] + tie_break * right[1]))
-            velocities.append((v[0], v[1]))
-            radii.append(a + 0.5 * robot_width + safety_margin + tie_break)
-            planes.append(int(Plane.VERTICAL))
-        else:
-            half_span = 0.5 * ob.extent + 0.5 * robot_width + horizontal_y_margin
-            if abs(robot_y - c[1]) > half_span:
-                continue
-            centers.append((c[0], c[2]))
-            velocities.append((v[0], v[2]))
-            radii.append(a + 0.5 * robot_height + safety_margin)
-            planes.append(int(Plane.HORIZONTAL))
-        ids.append(ob.id)
-    if not centers:
+    if not isinstance(obstacles, ObstacleSet):
+        obstacles = ObstacleSet.from_inputs(obstacles)
+    if len(obstacles) == 0:
         return Obstacles.empty(), []
-    return (
-        Obstacles(
-            center=np.array(centers),
-            velocity=np.array(velocities),
-            radius=np.array(radii),
-            plane=np.array(planes),
-        ),
-        ids,
+    c = obstacles.center + dt_predict * obstacles.velocity
+    vel = obstacles.velocity
+    vertical = obstacles.plane == int(Plane.VERTICAL)
+    size = obstacles.size
+    half_span = 0.5 * obstacles.extent + 0.5 * robot_width + horizontal_y_margin
+    keep = vertical | (np.abs(robot_y - c[:, 1]) <= half_span)
+    # Vertical: (x, y) moved tie_break to the robot's right (sin yaw, -cos yaw); bars: (x, z).
+    center = np.empty((len(obstacles), 2))
+    center[:, 0] = c[:, 0] + np.where(vertical, tie_break * math.sin(robot_yaw), 0.0)
+    center[:, 1] = np.where(vertical, c[:, 1] + tie_break * -math.cos(robot_yaw), c[:, 2])
+    velocity = np.empty((len(obstacles), 2))
+    velocity[:, 0] = vel[:, 0]
+    velocity[:, 1] = np.where(vertical, vel[:, 1], vel[:, 2])
+    radius = np.where(
+        vertical,
+        size + 0.5 * robot_width + safety_margin + tie_break,
+        size + 0.5 * robot_height + safety_margin,
     )
+    plane = obstacles.plane
+    ids = list(obstacles.ids)
+    if not keep.all():
+        center, velocity, radius, plane = center[keep], velocity[keep], radius[keep], plane[keep]
+        ids = [i for i, k in zip(ids, keep.tolist(), strict=True) if k]
+        if not ids:
+            return Obstacles.empty(), []
+    if not (np.isfinite(center).all() and np.isfinite(radius).all()):
+        raise InvalidInputError("obstacle prediction overflowed")
+    return Obstacles.from_validated(center, velocity, radius, plane), ids

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import enum
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -37,7 +38,11 @@ from safe_legged_c3bf.c3bf import (
     SafetyFilter,
     UnicycleHeightModel,
 )
-from safe_legged_c3bf.filtering.obstacle_input import ObstacleInput, to_c3bf_obstacles
+from safe_legged_c3bf.filtering.obstacle_input import (
+    ObstacleInput,
+    ObstacleSet,
+    to_c3bf_obstacles,
+)
 from safe_legged_c3bf.filtering.params import FilterParams
 from safe_legged_c3bf.gait_controller import VelocityCommand
 
@@ -172,7 +177,7 @@ class SafetyFilterCycle:
         reference: VelocityCommand | None,
         reference_time: float | None,
         base: BaseState | None,
-        obstacles: list[ObstacleInput] | None,
+        obstacles: ObstacleSet | Sequence[ObstacleInput] | None,
         obstacles_time: float | None,
     ) -> CycleOutput:
         """Run one cycle at sim time ``t`` (s) and return the command to publish.
@@ -182,7 +187,9 @@ class SafetyFilterCycle:
             reference: latest reference command (None if never received).
             reference_time: sim time the reference was received (s).
             base: latest odometry (None if never received); ``base.stamp`` is its time.
-            obstacles: latest obstacle list (None if never received).
+            obstacles: latest obstacle list (None if never received): best an
+                :class:`ObstacleSet`, validated once when the list arrived; a list of
+                :class:`ObstacleInput` is validated every cycle.
             obstacles_time: stamp of the obstacle list (s).
 
         """
@@ -230,10 +237,17 @@ class SafetyFilterCycle:
         pos = base.position
         v = self._v
         # Predict obstacles to now from their stamp.
-        circles, ids = to_c3bf_obstacles(
-            obstacles, t - obstacles_time, float(pos[1]), p.robot_width, p.robot_height,
-            p.safety_margin, p.horizontal_y_margin, yaw, p.tie_break,
-        )
+        try:
+            circles, ids = to_c3bf_obstacles(
+                obstacles, t - obstacles_time, float(pos[1]), p.robot_width, p.robot_height,
+                p.safety_margin, p.horizontal_y_margin, yaw, p.tie_break,
+            )
+        except InvalidInputError as err:
+            self._brake(dt)
+            return CycleOutput(
+                self.commanded, CycleStatus.INVALID_INPUT, f"rejected obstacles: {err}", ref,
+                ref_stale,
+            )
         deadlocked = False
         if p.model == "unicycle":
             deadlocked = self._deadlock_turn(t, ref_arr, circles, pos, yaw)

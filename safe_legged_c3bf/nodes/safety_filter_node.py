@@ -20,7 +20,8 @@ from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.node import Node
 
 from safe_legged_c3bf import topics
-from safe_legged_c3bf.filtering.obstacle_input import ObstacleInput
+from safe_legged_c3bf.c3bf import InvalidInputError
+from safe_legged_c3bf.filtering.obstacle_input import ObstacleSet
 from safe_legged_c3bf.filtering.params import FilterParams
 from safe_legged_c3bf.filtering.safety_cycle import CycleOutput, CycleStatus, SafetyFilterCycle
 from safe_legged_c3bf.nodes import ros_common
@@ -32,22 +33,20 @@ _DESCRIPTIONS = {
 }
 
 
-def obstacles_from_msg(msg: ObstacleArray) -> list[ObstacleInput] | None:
-    """ObstacleInputs from a message, or None if any obstacle has a non-finite/invalid value."""
-    out = []
-    for o in msg.obstacles:
-        ob = ObstacleInput(
-            id=o.id,
-            plane=int(o.plane),
-            center=np.array([o.center.x, o.center.y, o.center.z]),
-            velocity=np.array([o.velocity.x, o.velocity.y, o.velocity.z]),
-            semi_axes=np.array([o.semi_axis_a, o.semi_axis_b]),
-            extent=float(o.extent),
+def obstacles_from_msg(msg: ObstacleArray) -> ObstacleSet | None:
+    """The message's obstacles, validated once; None if any has a non-finite/invalid value."""
+    obs = msg.obstacles
+    try:
+        return ObstacleSet.from_arrays(
+            [o.id for o in obs],
+            [o.plane for o in obs],
+            [(o.center.x, o.center.y, o.center.z) for o in obs],
+            [(o.velocity.x, o.velocity.y, o.velocity.z) for o in obs],
+            [(o.semi_axis_a, o.semi_axis_b) for o in obs],
+            [o.extent for o in obs],
         )
-        if not ob.is_valid():
-            return None
-        out.append(ob)
-    return out
+    except InvalidInputError:
+        return None
 
 
 class SafetyFilterNode(Node):
@@ -72,7 +71,7 @@ class SafetyFilterNode(Node):
         self._reference = None
         self._reference_time: float | None = None
         self._base = None
-        self._obstacles: list[ObstacleInput] | None = None
+        self._obstacles: ObstacleSet | None = None  # validated once, on arrival
         self._obstacles_time: float | None = None
         self._last_cycle: float | None = None
         self._last_status: CycleStatus | None = None

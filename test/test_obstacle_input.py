@@ -1,0 +1,124 @@
+"""Obstacle lists validated once (ObstacleSet) and their vectorised conversion to circles."""
+
+import math
+
+import numpy as np
+import pytest
+from filter_harness import SimpleRobot
+
+from safe_legged_c3bf.c3bf import InvalidInputError, Obstacles, Plane
+from safe_legged_c3bf.filtering.obstacle_input import (
+    ObstacleInput,
+    ObstacleSet,
+    to_c3bf_obstacles,
+)
+from safe_legged_c3bf.filtering.safety_cycle import CycleStatus, SafetyFilterCycle
+from safe_legged_c3bf.gait_controller import VelocityCommand
+
+
+def reference_circles(obstacles, dt, robot_y, width, height, margin, y_margin, yaw, tie):
+    """The per-obstacle loop the vectorised conversion replaced (kept as the reference)."""
+    centers, velocities, radii, planes, ids = [], [], [], [], []
+    for ob in obstacles:
+        c = np.asarray(ob.center, dtype=float) + dt * np.asarray(ob.velocity, dtype=float)
+        v = np.asarray(ob.velocity, dtype=float)
+        a = float(np.max(ob.semi_axes))
+        if ob.plane == int(Plane.VERTICAL):
+            right = (math.sin(yaw), -math.cos(yaw))
+            centers.append((c[0] + tie * right[0], c[1] + tie * right[1]))
+            velocities.append((v[0], v[1]))
+            radii.append(a + 0.5 * width + margin + tie)
+            planes.append(int(Plane.VERTICAL))
+        else:
+            half_span = 0.5 * ob.extent + 0.5 * width + y_margin
+            if abs(robot_y - c[1]) > half_span:
+                continue
+            centers.append((c[0], c[2]))
+            velocities.append((v[0], v[2]))
+            radii.append(a + 0.5 * height + margin)
+            planes.append(int(Plane.HORIZONTAL))
+        ids.append(ob.id)
+    if not centers:
+        return Obstacles.empty(), []
+    return Obstacles(np.array(centers), np.array(velocities), np.array(radii),
+                     np.array(planes)), ids
+
+
+def random_inputs(rng, n):
+    return [
+        ObstacleInput(
+            f"o{i}", int(rng.integers(0, 2)), rng.uniform(-5, 5, 3), rng.uniform(-1, 1, 3),
+            rng.uniform(0.05, 0.6, 2), float(rng.uniform(0.2, 4.0)),
+        )
+        for i in range(n)
+    ]
+
+
+def test_vectorised_conversion_matches_the_per_obstacle_loop():
+    rng = np.random.default_rng(3)
+    for trial in range(300):
+        obs = random_inputs(rng, int(rng.integers(0, 12)))
+        args = (float(rng.uniform(0, 0.3)), float(rng.uniform(-3, 3)), 0.82, 0.12, 0.05, 0.1,
+                float(rng.uniform(-np.pi, np.pi)), float(rng.choice([0.0, 0.03])))
+        expected, ids_e = reference_circles(obs, *args)
+        for given in (obs, ObstacleSet.from_inputs(obs)):
+            got, ids = to_c3bf_obstacles(given, *args)
+            assert ids == ids_e, trial
+            for name in ("center", "velocity", "radius", "plane"):
+                np.testing.assert_allclose(getattr(got, name), getattr(expected, name),
+                                           rtol=0, atol=1e-15, err_msg=name)
+                assert not getattr(got, name).flags.writeable
+
+
+def test_obstacle_set_is_validated_once_and_read_only():
+    ok = ObstacleInput("a", 0, np.array([2.0, 0.0, 0.5]), np.zeros(3), np.array([0.2, 0.3]), 1.0)
+    s = ObstacleSet.from_inputs([ok, ok])
+    assert len(s) == 2 and s.ids == ("a", "a")
+    np.testing.assert_array_equal(s.size, [0.3, 0.3])
+    for arr in (s.plane, s.center, s.velocity, s.size, s.extent):
+        assert not arr.flags.writeable
+    assert len(ObstacleSet.from_inputs([])) == 0
+    bad = [
+        ObstacleInput("n", 0, np.array([np.nan, 0.0, 0.5]), np.zeros(3), np.ones(2), 1.0),
+        ObstacleInput("v", 0, np.zeros(3), np.array([0.0, np.inf, 0.0]), np.ones(2), 1.0),
+        ObstacleInput("z", 0, np.zeros(3), np.zeros(3), np.array([0.2, 0.0]), 1.0),
+        ObstacleInput("p", 2, np.zeros(3), np.zeros(3), np.ones(2), 1.0),
+        ObstacleInput("e", 1, np.zeros(3), np.zeros(3), np.ones(2), math.nan),
+    ]
+    for b in bad:
+        assert not b.is_valid()
+        with pytest.raises(InvalidInputError):
+            ObstacleSet.from_inputs([ok, b])
+        with pytest.raises(InvalidInputError):
+            to_c3bf_obstacles([ok, b], 0.0, 0.0, 0.8, 0.1, 0.0, 0.0)
+    with pytest.raises(InvalidInputError):  # shapes that do not match the ids
+        ObstacleSet.from_arrays(["a"], [0], [[1.0, 2.0]], [[0, 0, 0]], [[1, 1]], [1.0])
+
+
+@pytest.mark.filterwarnings("ignore:overflow encountered")
+def test_overflowing_prediction_is_rejected():
+    s = ObstacleSet.from_inputs([ObstacleInput(
+        "fast", 0, np.zeros(3), np.array([1e308, 0.0, 0.0]), np.ones(2), 1.0)])
+    with pytest.raises(InvalidInputError):
+        to_c3bf_obstacles(s, 10.0, 0.0, 0.8, 0.1, 0.0, 0.0)
+
+
+def test_cycle_takes_a_set_or_a_list_and_brakes_on_invalid_obstacles():
+    robot = SimpleRobot(vx=0.5)
+    obs = [ObstacleInput("p", 0, np.array([2.0, 0.1, 0.5]), np.array([-0.2, 0.0, 0.0]),
+                         np.array([0.25, 0.25]), 1.0)]
+    with_list, with_set = SafetyFilterCycle(), SafetyFilterCycle()
+    obs_set = ObstacleSet.from_inputs(obs)
+    for k in range(50):
+        t = 0.02 * k
+        a = with_list.step(t, VelocityCommand(0.6), t, robot.base_state(t), obs, t - 0.01)
+        b = with_set.step(t, VelocityCommand(0.6), t, robot.base_state(t), obs_set, t - 0.01)
+        assert a.status is b.status and a.command == b.command and a.obstacle_ids == ["p"]
+        robot.step(a.command, 0.02)
+    assert a.status is CycleStatus.ACTIVE
+    # An invalid obstacle in a list: the cycle brakes and says why (no exception).
+    bad = [ObstacleInput("n", 0, np.array([np.nan, 0.0, 0.5]), np.zeros(3), np.ones(2), 1.0)]
+    v0 = with_list.commanded.vx
+    out = with_list.step(1.0, VelocityCommand(0.6), 1.0, robot.base_state(1.0), bad, 1.0)
+    assert out.status is CycleStatus.INVALID_INPUT and "obstacle" in out.text
+    assert 0.0 <= out.command.vx < v0
