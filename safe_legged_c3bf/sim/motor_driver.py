@@ -113,7 +113,7 @@ class MotorDriver:
         is several times faster than numpy, and this runs at every physics step.
         """
         states = pybullet.getJointStates(
-            self._robot.body_id, self._robot.joint_indices, physicsClientId=self._client
+            self._robot.body_id, self._indices, physicsClientId=self._client
         )
         limits = self._limits
         tau = []

@@ -166,6 +166,7 @@ class Simulation:
         info = pybullet.getDynamicsInfo(self.robot.body_id, -1, physicsClientId=c)
         self._com_to_link = pybullet.invertTransform(info[3], info[4])
         self.driver = MotorDriver(c, self.robot, timeout=command_timeout, damping_kd=damping_kd)
+        self._joint_indices = self.robot.joint_indices.tolist()  # a list is faster to parse
         self.obstacles = [KinematicObstacle(c, o, mesh_segments) for o in sc.obstacles]
         self._moving = [i for i, o in enumerate(self.obstacles) if o.moving]
         self._next_sync = {i: 0 for i in self._moving}
@@ -180,7 +181,7 @@ class Simulation:
         self.driver_timeouts = 0
         self.commands_received = 0
         self.malformed_commands = 0
-        self._goal = np.asarray(sc.goal.position, dtype=float)
+        self._goal = tuple(float(v) for v in sc.goal.position)
         self._goal_reached_time: float | None = None
         self._min_goal_distance = math.inf
         self._camera: FollowCamera | None = None
@@ -355,7 +356,7 @@ class Simulation:
     def joint_lists(self) -> tuple[list[float], list[float], list[float]]:
         """(positions, velocities, last torques) as plain lists: a fast path for publishing."""
         states = pybullet.getJointStates(
-            self.robot.body_id, self.robot.joint_indices, physicsClientId=self.client
+            self.robot.body_id, self._joint_indices, physicsClientId=self.client
         )
         return [s[0] for s in states], [s[1] for s in states], self.driver.last_torques.tolist()
 
