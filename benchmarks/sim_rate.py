@@ -8,8 +8,10 @@ many it got. Two measurements:
 
 1. real_time_factor 0 (as fast as possible): physics steps per wall second;
 2. real_time_factor 1: CPU use of this process (physics thread, executor thread, DDS threads
-   and the stub, which costs well under 1 %), from time.process_time() over a wall interval,
-   in % of one core.
+   and the stub), from time.process_time() over a wall interval, in % of one core, and the
+   physics thread's share of it (its own CPU clock). The executor is spun the way a node's
+   executor spins (woken by timers and messages only, not polled), so its wake-ups are the
+   simulator's diagnostics timer and the stub's 50 Hz timer.
 
 The machine's load average is printed too: on a shared machine the numbers vary with it
 (contention slows the same work down and the process may not even get the CPU it asks for).
@@ -21,10 +23,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 
 import yaml
@@ -49,6 +53,9 @@ SCENARIO = {
 }
 
 
+PHYSICS_THREAD = "simulator_physics"  # SimulatorNode's physics thread
+
+
 def _sim_topics():
     from safe_legged_c3bf import topics
 
@@ -60,8 +67,6 @@ def _sim_topics():
 
 def count_topics() -> None:
     """Subscriber process: count messages on every simulator topic until stdin closes."""
-    import threading
-
     import rclpy
 
     from safe_legged_c3bf.nodes.ros_common import qos
@@ -85,6 +90,21 @@ def count_topics() -> None:
     print(json.dumps(counts), flush=True)
     node.destroy_node()
     rclpy.try_shutdown()
+
+
+def _spin_for(executor, seconds: float) -> None:  # noqa: ANN001
+    """Spin ``executor`` for ``seconds`` of wall time, waking only for its events."""
+    end = time.monotonic() + seconds
+    while (remaining := end - time.monotonic()) > 0.0:
+        executor.spin_once(timeout_sec=remaining)
+
+
+def _thread_cpu(name: str) -> float:
+    """CPU time (s) of the running thread called ``name`` (nan if there is none)."""
+    for thread in threading.enumerate():
+        if thread.name == name and thread.ident is not None:
+            return time.clock_gettime(time.pthread_getcpuclockid(thread.ident))
+    return math.nan
 
 
 def run(
@@ -146,23 +166,17 @@ def run(
         while sim_node.waiting_for_command and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.01)
         start_sim = sim.time
-        end = time.monotonic() + 0.5  # warm-up
-        while time.monotonic() < end:
-            executor.spin_once(timeout_sec=0.01)
+        _spin_for(executor, 0.5)  # warm-up
+        physics0 = _thread_cpu(PHYSICS_THREAD)
         sim0, wall0, cpu0 = sim.time, time.monotonic(), time.process_time()
-        end = wall0 + seconds
-        while time.monotonic() < end:
-            executor.spin_once(timeout_sec=0.01)
+        _spin_for(executor, seconds)
         result = {
             "sim": sim.time - sim0,
             "wall": time.monotonic() - wall0,
             "cpu": time.process_time() - cpu0,
+            "physics_cpu": _thread_cpu(PHYSICS_THREAD) - physics0,
         }
-        total_sim = sim.time - start_sim
-        # Let the last messages arrive, then stop the counter.
-        end = time.monotonic() + 0.3
-        while time.monotonic() < end:
-            executor.spin_once(timeout_sec=0.01)
+        _spin_for(executor, 0.3)  # let the last messages arrive, then stop the counter
     finally:
         for node in (sim_node, stub):
             if node in executor.get_nodes():
@@ -176,6 +190,7 @@ def run(
             counter.kill()
             out, _ = counter.communicate()
     counts = json.loads(out.strip().splitlines()[-1])
+    total_sim = sim.time - start_sim  # physics has stopped: every message sent is counted
     result["rates"] = {name: c / total_sim for name, c in counts.items()}
     return result
 
@@ -217,7 +232,9 @@ def main() -> None:
             f"real_time_factor 1: sim/wall = {r['sim'] / r['wall']:.3f} "
             f"({r['sim'] * 1000.0 / r['wall']:.0f} physics steps/s), CPU of the simulator "
             f"process {100.0 * r['cpu'] / r['wall']:.1f} % of one core (process_time "
-            f"{r['cpu']:.2f} s over {r['wall']:.2f} s wall)"
+            f"{r['cpu']:.2f} s over {r['wall']:.2f} s wall), of which the physics thread "
+            f"{100.0 * r['physics_cpu'] / r['wall']:.1f} %; "
+            f"{100.0 * r['cpu'] / r['sim']:.1f} % of one core per sim second"
         )
         _print_rates(r["rates"])
     print(f"load average after: {os.getloadavg()[0]:.2f}")
