@@ -73,6 +73,7 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import Imu, JointState
 
 from safe_legged_c3bf import topics
+from safe_legged_c3bf.nodes.cdr_template import CdrTemplate, time_parts
 from safe_legged_c3bf.nodes.ros_common import diagnostic_status, qos, run_node, to_time_msg
 from safe_legged_c3bf.sim.motor_driver import DriverMode
 from safe_legged_c3bf.sim.obstacles import ObstacleState
@@ -111,6 +112,13 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
 }
 
 _IDLE_PUBLISH_PERIOD = 0.1  # wall s between state republications while waiting
+
+
+_STAMP = ["header.stamp.sec", "header.stamp.nanosec"]
+
+
+def _xyz(prefix: str, axes: str = "xyz") -> list[str]:
+    return [f"{prefix}.{a}" for a in axes]
 
 
 def _stamp_ns(stamp: Any) -> int:
@@ -219,16 +227,34 @@ class SimulatorNode(Node):
         self._stop = threading.Event()
         self._error: str | None = None
 
-        self._odom = Odometry()
-        self._odom.header.frame_id = topics.ODOM_FRAME
-        self._odom.child_frame_id = topics.BASE_FRAME
-        self._joints = JointState()
-        self._joints.name = sim.joint_names
-        self._imu = Imu()
-        self._imu.header.frame_id = topics.BASE_FRAME
+        # The state messages go out at the state rate: serialized once, patched in place.
+        odom = Odometry()
+        odom.header.frame_id, odom.child_frame_id = topics.ODOM_FRAME, topics.BASE_FRAME
+        self._odom = CdrTemplate(odom, {
+            "stamp": _STAMP,
+            "pose": _xyz("pose.pose.position") + _xyz("pose.pose.orientation", "xyzw"),
+            "twist": _xyz("twist.twist.linear") + _xyz("twist.twist.angular"),
+        })
+        joints = JointState()
+        joints.name = sim.joint_names
+        n = len(sim.joint_names)
+        for field in ("position", "velocity", "effort"):
+            setattr(joints, field, array.array("d", [0.0] * n))
+        self._joints = CdrTemplate(joints, {"stamp": _STAMP} | {
+            field: [f"{field}[{i}]" for i in range(n)]
+            for field in ("position", "velocity", "effort")
+        })
+        imu = Imu()
+        imu.header.frame_id = topics.BASE_FRAME
+        self._imu = CdrTemplate(imu, {
+            "stamp": _STAMP,
+            "orientation": _xyz("orientation", "xyzw"),
+            "angular_velocity": _xyz("angular_velocity"),
+            "linear_acceleration": _xyz("linear_acceleration"),
+        })
+        self._clock = CdrTemplate(ClockMsg(), {"stamp": ["clock.sec", "clock.nanosec"]})
         self._last_world_velocity: tuple[float, tuple[float, float, float]] | None = None
         self._gravity = float(sim.scenario.physics.gravity)
-        self._clock = ClockMsg()
         self._gt_safety = GroundTruthSafety()
         self._gt_safety.header.frame_id = topics.ODOM_FRAME
 
@@ -540,46 +566,35 @@ class SimulatorNode(Node):
 
     def _publish_state(self) -> None:
         sim = self._sim
-        stamp = to_time_msg(sim.time)
-        self._last_state_stamp = _stamp_ns(stamp)
+        sec, nanosec = time_parts(sim.time)
+        self._last_state_stamp = sec * 1_000_000_000 + nanosec
         k, waiting = sim.step_count, self._waiting
         if waiting or k % self._clock_every == 0:
-            self._clock.clock = stamp
-            self._pub_clock.publish(self._clock)
+            self._clock.set("stamp", sec, nanosec)
+            self._pub_clock.publish(self._clock.bytes())
         position, orientation, linear, angular = sim.base_pose_twist()
         if waiting or k % self._odom_every == 0:
             odom = self._odom
-            odom.header.stamp = stamp
-            pose, twist = odom.pose.pose, odom.twist.twist
-            pose.position.x, pose.position.y, pose.position.z = position
-            (
-                pose.orientation.x, pose.orientation.y, pose.orientation.z, pose.orientation.w
-            ) = orientation
-            twist.linear.x, twist.linear.y, twist.linear.z = linear
-            twist.angular.x, twist.angular.y, twist.angular.z = angular
-            self._pub_odom.publish(odom)
-        self._publish_imu(stamp, orientation, linear, angular)
+            odom.set("stamp", sec, nanosec)
+            odom.set("pose", *position, *orientation)
+            odom.set("twist", *linear, *angular)
+            self._pub_odom.publish(odom.bytes())
+        self._publish_imu(sec, nanosec, orientation, linear, angular)
         q, dq, tau = sim.joint_lists()
-        msg = self._joints
-        msg.header.stamp = stamp
-        # array.array skips rclpy's per-element checks of plain lists.
-        msg.position = array.array("d", q)
-        msg.velocity = array.array("d", dq)
-        msg.effort = array.array("d", tau)
-        self._pub_joints.publish(msg)
+        joints = self._joints
+        joints.set("stamp", sec, nanosec)
+        joints.set("position", *q)
+        joints.set("velocity", *dq)
+        joints.set("effort", *tau)
+        self._pub_joints.publish(joints.bytes())
 
-    def _publish_imu(self, stamp: Any, orientation, linear, angular) -> None:  # noqa: ANN001
+    def _publish_imu(self, sec: int, nanosec: int, orientation, linear, angular) -> None:  # noqa: ANN001
         """/imu: orientation, angular velocity and specific force, in base_link.
 
         The specific force is R^T (a + g), a the finite difference of the world-frame velocity
         of base_link between two states (zero at the first). Plain floats: this runs at the
         state rate, where numpy's per-call overhead for 3-vectors costs more than the math.
         """
-        imu = self._imu
-        imu.header.stamp = stamp
-        o = imu.orientation
-        o.x, o.y, o.z, o.w = orientation
-        imu.angular_velocity.x, imu.angular_velocity.y, imu.angular_velocity.z = angular
         vx, vy, vz = rotate(orientation, linear)
         t = self._sim.time
         ax = ay = az = 0.0
@@ -588,9 +603,12 @@ class SimulatorNode(Node):
             t0, (ux, uy, uz) = last
             ax, ay, az = (vx - ux) / (t - t0), (vy - uy) / (t - t0), (vz - uz) / (t - t0)
         self._last_world_velocity = (t, (vx, vy, vz))
-        f = rotate_inverse(orientation, (ax, ay, az + self._gravity))
-        imu.linear_acceleration.x, imu.linear_acceleration.y, imu.linear_acceleration.z = f
-        self._pub_imu.publish(imu)
+        imu = self._imu
+        imu.set("stamp", sec, nanosec)
+        imu.set("orientation", *orientation)
+        imu.set("angular_velocity", *angular)
+        imu.set("linear_acceleration", *rotate_inverse(orientation, (ax, ay, az + self._gravity)))
+        self._pub_imu.publish(imu.bytes())
 
     def _obstacle_array(self, states: list[ObstacleState]) -> ObstacleArray:
         msg = ObstacleArray()
