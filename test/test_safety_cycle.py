@@ -287,3 +287,38 @@ def test_deadlock_in_front_of_a_pillar_is_resolved_by_turning(lateral):
     assert math.hypot(robot.x - 6.0, robot.y) < 0.3, (robot.x, robot.y)
     assert min_gap(log) > 0.0
     assert any("deadlock" in out.text for _, out, *_ in log)
+
+
+def _between_three_obstacles(deadlock_yaw_rate: float):
+    """Random quadruped seed 7 at t = 25 s: at rest between two pillars and a stopped mover,
+    facing away from the goal; the planner turns in place (right, the short way) and that
+    turn swings the body point towards a pillar."""
+    from safe_legged_c3bf.planning.reference_planner import (
+        PlannerConfig,
+        ReferencePlanner,
+        RobotPose,
+    )
+
+    planner = ReferencePlanner(PlannerConfig(mode="goal", max_vx=0.4))
+    planner.set_goal(-1.03, 6.35)
+
+    def reference(t, robot):
+        return planner.compute(RobotPose(robot.x, robot.y, robot.yaw, robot.z), t)
+
+    obstacles = [
+        ScriptedObstacle("pillar_0", np.array([-0.32, 2.48, 0.5]), semi_axes=(0.316, 0.248)),
+        ScriptedObstacle("pillar_2", np.array([-0.64, 4.89, 0.5]), semi_axes=(0.214, 0.16)),
+        ScriptedObstacle("mover", np.array([0.89, 3.93, 0.5]), semi_axes=(0.286, 0.259)),
+    ]
+    robot = SimpleRobot(x=0.62, y=3.24, yaw=math.radians(-113.0), tau=0.15)
+    params = FilterParams(deadlock_yaw_rate=deadlock_yaw_rate)
+    return run(SafetyFilterCycle(params), robot, obstacles, reference, 30.0), robot
+
+
+def test_deadlock_of_a_blocked_turn_in_place_is_resolved():
+    log, robot = _between_three_obstacles(0.0)
+    assert math.hypot(robot.x - 0.62, robot.y - 3.24) < 0.05  # stood still for 30 s
+    log, robot = _between_three_obstacles(0.5)
+    assert math.hypot(robot.x + 1.03, robot.y - 6.35) < 0.3, (robot.x, robot.y)
+    assert min_gap(log) > 0.0
+    assert any("deadlock" in out.text for _, out, *_ in log)

@@ -58,6 +58,8 @@ class FilterParams:
             that passes the nearest obstacle on the tie-break side (0: never). At rest the
             barrier h is 0 and blind to steering, so only a turn in place lets the body point
             leave the collision cone; the QP still filters the turn.
+        deadlock_turn_time: least duration (s) of a deadlock turn (ended early once the
+            commanded speed exceeds twice ``deadlock_speed``).
         deadlock_memory: how long (s) the chosen side is kept after the last deadlocked cycle.
 
     """
@@ -94,6 +96,7 @@ class FilterParams:
     tie_break: float = 0.03
     deadlock_speed: float = 0.05
     deadlock_yaw_rate: float = 0.5
+    deadlock_turn_time: float = 1.5
     deadlock_memory: float = 3.0
 
     def validate(self) -> FilterParams:
@@ -108,7 +111,7 @@ class FilterParams:
         )
         non_negative = (
             "offset", "safety_margin", "max_reverse_speed", "horizontal_y_margin", "tie_break",
-            "deadlock_speed", "deadlock_yaw_rate", "deadlock_memory",
+            "deadlock_speed", "deadlock_yaw_rate", "deadlock_turn_time", "deadlock_memory",
         )
         for name in positive:
             value = getattr(self, name)

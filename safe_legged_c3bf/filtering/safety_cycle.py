@@ -118,6 +118,7 @@ class SafetyFilterCycle:
         # and whether the last cycle's QP changed the command.
         self._detour_side = 0
         self._detour_time = -math.inf
+        self._detour_until = -math.inf
         self._held_back = False
 
     def _build(self) -> None:
@@ -163,12 +164,20 @@ class SafetyFilterCycle:
         self._v = np.array([_toward_zero(x, step) for x in self._v])
 
     @staticmethod
-    def _measured(base: BaseState) -> np.ndarray:
-        """Measured (vx, vy, vz, yaw rate): body-frame planar, odom vertical."""
-        v_world = base.linear_velocity_world
-        return np.array(
-            [base.linear_velocity[0], base.linear_velocity[1], v_world[2], base.angular_velocity[2]]
-        )
+    def _measured(base: BaseState) -> tuple[np.ndarray, float]:
+        """Measured (vx, vy, vz, yaw rate) (body-frame planar, odom vertical) and the yaw.
+
+        Scalar math on the unit quaternion: the formulas of ``BaseState.yaw`` and
+        ``BaseState.linear_velocity_world`` without building the rotation matrix.
+        """
+        qx, qy, qz, qw = base.orientation.tolist()
+        norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+        qx, qy, qz, qw = qx / norm, qy / norm, qz / norm, qw / norm
+        yaw = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
+        vx, vy, vz = base.linear_velocity.tolist()
+        vz_world = (2 * (qx * qz - qy * qw) * vx + 2 * (qy * qz + qx * qw) * vy
+                    + (1 - 2 * (qx * qx + qy * qy)) * vz)
+        return np.array([vx, vy, vz_world, float(base.angular_velocity[2])]), yaw
 
     # ------------------------------------------------------------------ the cycle
     def step(
@@ -228,12 +237,11 @@ class SafetyFilterCycle:
                 ref, ref_stale,
             )
 
-        measured = self._measured(base)
+        measured, yaw = self._measured(base)
         if not self._initialised:
             self._v = self._clip_velocity(measured)
             self._initialised = True
 
-        yaw = base.yaw
         pos = base.position
         v = self._v
         # Predict obstacles to now from their stamp.
@@ -276,7 +284,7 @@ class SafetyFilterCycle:
             idx = (0, 1, 2)
 
         u_min, u_max = self._bounds(v, measured, float(pos[2]), dt, idx)
-        u_ref_clipped = np.clip(u_ref, u_min, u_max)
+        u_ref_clipped = np.minimum(np.maximum(u_ref, u_min), u_max)  # np.clip, less overhead
         try:
             result = self.filter.filter(
                 state, u_ref_clipped, circles, yaw=yaw, u_min=u_min, u_max=u_max
@@ -312,58 +320,88 @@ class SafetyFilterCycle:
     ) -> bool:
         """Deadlock resolution: replace the reference yaw rate by a turn in place if stuck.
 
-        Deadlocked: the filter changed the last command, holds the commanded forward speed
-        below ``deadlock_speed`` and the reference asks for more. At rest every barrier is 0
-        and blind to steering, so the QP keeps the robot still (an undesired equilibrium of
-        CBF-QPs). The reference (not the constraint) then turns towards the side that passes
-        the nearest vertical obstacle as the tie-break does; the QP still filters the turn.
-        The side is kept for ``deadlock_memory`` s so noise cannot make the robot dither.
-        Modifies ``ref_arr`` in place; returns True when it did.
+        Deadlocked: the filter changed the last command and holds the robot still (commanded
+        speed below ``deadlock_speed``, yaw rate below half ``deadlock_yaw_rate``) while the
+        reference asks to move or to turn. At rest every barrier is 0 and its gradient only
+        forbids body-point motion towards each obstacle, so the QP can hold the robot still
+        for good (an undesired equilibrium of CBF-QPs): in front of an obstacle, or between
+        obstacles that each block one way of turning. The reference (not the constraint) then
+        turns in place for at least ``deadlock_turn_time`` s, to the side whose body-point
+        motion points most away from the obstacles within 1 m of their inflated circles (the
+        side that passes the nearest one as the tie-break does when that is a tie). The side
+        is kept for ``deadlock_memory`` s so noise cannot make the robot dither. The QP still
+        filters the turn. Modifies ``ref_arr`` in place; returns True when it did.
         """
         p = self.params
         if p.deadlock_yaw_rate <= 0.0:
             return False
-        stuck = (self._held_back and self._v[0] < p.deadlock_speed
-                 and ref_arr[0] > p.deadlock_speed)
+        v = self._v
+        if t < self._detour_until and v[0] < 2.0 * p.deadlock_speed:
+            ref_arr[3] = self._detour_side * p.deadlock_yaw_rate
+            return True
+        stuck = (self._held_back and abs(v[0]) < p.deadlock_speed
+                 and abs(v[3]) < 0.5 * p.deadlock_yaw_rate
+                 and (ref_arr[0] > p.deadlock_speed
+                      or abs(ref_arr[3]) > 0.5 * p.deadlock_yaw_rate))
         if not stuck:
             return False
         if self._detour_side == 0 or t - self._detour_time > p.deadlock_memory:
-            vertical = np.asarray(circles.plane) == 0
-            if not vertical.any():
+            side = self._deadlock_side(circles, pos, yaw)
+            if side == 0:
                 return False
-            rel = circles.center[vertical] - pos[:2]
-            nearest = rel[int(np.argmin(np.linalg.norm(rel, axis=1) - circles.radius[vertical]))]
-            lateral = -math.sin(yaw) * nearest[0] + math.cos(yaw) * nearest[1]  # + = left
-            self._detour_side = -1 if lateral > 0.0 else 1
+            self._detour_side = side
         self._detour_time = t
+        self._detour_until = t + p.deadlock_turn_time
         ref_arr[3] = self._detour_side * p.deadlock_yaw_rate
         return True
+
+    def _deadlock_side(self, circles, pos: np.ndarray, yaw: float) -> int:  # noqa: ANN001
+        """Turn side (+1 left, -1 right) for the deadlock turn; 0 without vertical obstacles."""
+        vertical = np.asarray(circles.plane) == 0
+        if not vertical.any():
+            return 0
+        c, s = math.cos(yaw), math.sin(yaw)
+        body = np.array([pos[0] + self.params.offset * c, pos[1] + self.params.offset * s])
+        away = body - circles.center[vertical]  # from each obstacle to the body point
+        dist = np.linalg.norm(away, axis=1)
+        gap = dist - circles.radius[vertical]
+        near = gap < 1.0
+        if near.any():
+            unit = away[near] / np.maximum(dist[near], 1e-9)[:, None]
+            left = np.array([-s, c])  # body-point velocity direction of a left turn
+            score_left = float(np.min(unit @ left))
+            score_right = float(np.min(unit @ -left))
+            if abs(score_left - score_right) > 0.1:
+                return 1 if score_left > score_right else -1
+        nearest = -away[int(np.argmin(gap))]
+        lateral = -s * nearest[0] + c * nearest[1]  # + = obstacle on the left
+        return -1 if lateral > 0.0 else 1
 
     def _bounds(
         self, v: np.ndarray, measured: np.ndarray, z: float, dt: float, idx: tuple[int, ...]
     ) -> tuple[np.ndarray, np.ndarray]:
         """Per-cycle input bounds: limits, velocity limits, height range and anti-windup."""
         p = self.params
-        lo, hi = -self._limits.copy(), self._limits.copy()
+        hi = self._limits.tolist()
+        lo = [-x for x in hi]
         vy_max = p.max_lateral_speed if p.model == "holonomic" else 0.0
-        v_lo = np.array([-p.max_reverse_speed, -vy_max, -p.max_vertical_speed, -p.max_yaw_rate])
-        v_hi = np.array([p.max_speed, vy_max, p.max_vertical_speed, p.max_yaw_rate])
+        v_lo = (-p.max_reverse_speed, -vy_max, -p.max_vertical_speed, -p.max_yaw_rate)
+        v_hi = (p.max_speed, vy_max, p.max_vertical_speed, p.max_yaw_rate)
+        vl, ml = v.tolist(), measured.tolist()
         for k, j in enumerate(idx):
-            lo[k] = max(lo[k], (v_lo[j] - v[j]) / dt)
-            hi[k] = min(hi[k], (v_hi[j] - v[j]) / dt)
-            lead = v[j] - measured[j]
+            lo[k] = max(lo[k], (v_lo[j] - vl[j]) / dt)
+            hi[k] = min(hi[k], (v_hi[j] - vl[j]) / dt)
+            lead = vl[j] - ml[j]
             if lead > p.windup_band:
                 hi[k] = min(hi[k], 0.0)
             elif lead < -p.windup_band:
                 lo[k] = max(lo[k], 0.0)
         # Height-range barrier (second order, exponential): min_height <= z <= max_height.
-        k_h, vz = p.height_gain, v[2]
+        k_h, vz = p.height_gain, vl[2]
         kz = idx.index(2)
         lo[kz] = max(lo[kz], -2.0 * k_h * vz - k_h * k_h * (z - p.min_height))
         hi[kz] = min(hi[kz], -2.0 * k_h * vz + k_h * k_h * (p.max_height - z))
-        bad = lo > hi
-        if bad.any():  # conflicting limits: take the middle (limits are soft here)
-            mid = 0.5 * (lo + hi)
-            lo = np.where(bad, mid, lo)
-            hi = np.where(bad, mid, hi)
-        return lo, hi
+        for k in range(len(lo)):
+            if lo[k] > hi[k]:  # conflicting limits: take the middle (limits are soft here)
+                lo[k] = hi[k] = 0.5 * (lo[k] + hi[k])
+        return np.array(lo), np.array(hi)
