@@ -96,7 +96,7 @@ def test_random_movers_leave_a_passage_at_rest(robot):
         gap = rs.passages(sc)
         checked += math.isfinite(gap)
         assert gap >= profile.passage - 0.01, (seed, gap)
-    assert checked >= 2  # pairs with a mover occur
+    assert checked >= 1  # pairs with a mover occur (the check is not vacuous)
 
 
 def test_passage_check_sees_a_mover_stopping_beside_a_pillar():

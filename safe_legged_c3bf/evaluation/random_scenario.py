@@ -84,8 +84,8 @@ class RandomProfile:
         half_width: half the robot's width across the path (m): a vertical obstacle is in
             the way when the straight path passes closer than its smaller semi-axis plus this.
         passage: least surface-to-surface gap (m) between a mover at rest (waiting or
-            stopped) and any other obstacle at rest: the filter's inflation diameter plus a
-            margin, so no dead end forms.
+            stopped) and any other obstacle at rest: the filter's inflation diameter (0.98 m
+            for the A1, 1.02 m for the biped) plus 0.4 m, so no dead end forms.
         in_way_fraction: the lateral offset of a conflict point is at most this share of
             (smaller semi-axis + half_width).
         start_clearance: least distance (m) between any obstacle surface and the start, over
@@ -155,7 +155,7 @@ PROFILES: dict[str, RandomProfile] = {
         goal_distance=(5.5, 7.0), duration=36.0, obstacle_count=(1, 3),
         obstacle_radius=(0.18, 0.35), aspect=(0.6, 1.0), height=(0.8, 1.8),
         mover_speed=(0.15, 0.35), moving_probability=0.5, kind_weights=(0.4, 0.3, 0.3),
-        bar_probability=0.2, half_width=0.15, in_way_fraction=0.5, passage=1.0,
+        bar_probability=0.2, half_width=0.15, in_way_fraction=0.5, passage=1.4,
         start_clearance=1.0,
         goal_clearance=1.0, first_station=2.5, last_station=1.5, spacing=1.2,
         pre_travel=(1.5, 3.5), post_travel=(1.5, 2.5),
@@ -165,7 +165,7 @@ PROFILES: dict[str, RandomProfile] = {
         goal_distance=(3.0, 3.6), duration=45.0, obstacle_count=(1, 2),
         obstacle_radius=(0.15, 0.3), aspect=(0.6, 1.0), height=(1.0, 1.8),
         mover_speed=(0.1, 0.2), moving_probability=0.5, kind_weights=(0.4, 0.3, 0.3),
-        bar_probability=0.0, half_width=0.15, in_way_fraction=0.5, passage=1.05,
+        bar_probability=0.0, half_width=0.15, in_way_fraction=0.5, passage=1.45,
         start_clearance=0.9,
         goal_clearance=0.9, first_station=1.4, last_station=1.2, spacing=0.9,
         pre_travel=(1.0, 2.5), post_travel=(1.3, 2.0), trunk_top=1.1,
