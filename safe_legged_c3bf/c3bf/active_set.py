@@ -49,7 +49,7 @@ _VIOL_TOL = 1e-12  # a row is violated below -_VIOL_TOL * (1 + max |r|)
 _DEP_TOL = 1e-10  # squared distance to the span of S below _DEP_TOL * K_pp: dependent
 _POS_TOL = 1e-12  # a step component counts as positive above _POS_TOL * (1 + max |comp|)
 _MAX_STEPS_PER_ROW = 6
-_EYE = [np.eye(k) for k in range(4)]
+_BOX = [np.concatenate((np.eye(k), -np.eye(k))) for k in range(4)]  # u >= lo, -u >= -hi
 
 
 class ActiveSetResult(NamedTuple):
@@ -116,10 +116,14 @@ def solve_box_qp(
 
     """
     m = u0.shape[0]
-    fin_lo, fin_hi = np.isfinite(lo), np.isfinite(hi)
-    eye = _EYE[m] if m < len(_EYE) else np.eye(m)
-    A = np.concatenate((a, eye[fin_lo], -eye[fin_hi]))
-    r = np.concatenate((b, lo[fin_lo], -hi[fin_hi])) - A @ u0  # need A d >= r
+    if m < len(_BOX) and np.isfinite(lo).all() and np.isfinite(hi).all():
+        A = np.concatenate((a, _BOX[m]))  # the usual case: every input bounded
+        r = np.concatenate((b, lo, -hi)) - A @ u0  # need A d >= r
+    else:
+        fin_lo, fin_hi = np.isfinite(lo), np.isfinite(hi)
+        eye = np.eye(m)
+        A = np.concatenate((a, eye[fin_lo], -eye[fin_hi]))
+        r = np.concatenate((b, lo[fin_lo], -hi[fin_hi])) - A @ u0
     viol_tol = _VIOL_TOL * (1.0 + float(np.abs(r).max()))
     if r.max() <= viol_tol:
         return ActiveSetResult(u0.copy(), False)

@@ -229,17 +229,22 @@ class _Bounds(NamedTuple):
     hi_l: list
 
 
-def _check_bounds(u_min, u_max, m: int) -> tuple[np.ndarray, np.ndarray]:
+def _check_bounds(u_min, u_max, m: int) -> _Bounds:
     try:
         lo = np.full(m, -np.inf) if u_min is None else np.array(u_min, dtype=float)
         hi = np.full(m, np.inf) if u_max is None else np.array(u_max, dtype=float)
     except (TypeError, ValueError) as exc:
         raise InvalidInputError(f"u_min/u_max are not numeric: {exc}") from exc
-    if lo.shape != (m,) or hi.shape != (m,) or np.isnan(lo).any() or np.isnan(hi).any():
+    if lo.shape != (m,) or hi.shape != (m,):
         raise InvalidInputError(f"u_min/u_max must have shape ({m},) and no NaN")
-    if (lo > hi).any() or (lo == np.inf).any() or (hi == -np.inf).any():
-        raise InvalidInputError(f"need u_min <= u_max (finite or open), got {lo}, {hi}")
-    return lo, hi
+    # Element-wise checks on Python floats (m is tiny): NaN, order, no +inf lower/-inf upper.
+    lo_l, hi_l = lo.tolist(), hi.tolist()
+    for a, b in zip(lo_l, hi_l, strict=True):
+        if math.isnan(a) or math.isnan(b):
+            raise InvalidInputError(f"u_min/u_max must have shape ({m},) and no NaN")
+        if a > b or a == math.inf or b == -math.inf:
+            raise InvalidInputError(f"need u_min <= u_max (finite or open), got {lo}, {hi}")
+    return _Bounds(lo, hi, lo_l, hi_l)
 
 
 class SafetyFilter:
@@ -314,9 +319,8 @@ class SafetyFilter:
         self.weights = w
         self._w_inv = np.linalg.inv(w)
         self._w_inv_l = self._w_inv.tolist()
-        lo, hi = _check_bounds(u_min, u_max, m)
-        self.u_min, self.u_max = lo, hi
-        self._bounds = _Bounds(lo, hi, lo.tolist(), hi.tolist())
+        self._bounds = _check_bounds(u_min, u_max, m)
+        self.u_min, self.u_max = self._bounds.lo, self._bounds.hi
         self._cur = self._bounds  # limits of the call in progress
         if not (np.isfinite(v_eps) and v_eps >= 0):
             raise InvalidInputError("v_eps must be finite and >= 0")
@@ -402,11 +406,11 @@ class SafetyFilter:
             return self._failsafe(x, yaw, len(obstacles), t0, f"internal error: {exc!r}")
 
     def _call_bounds(self, u_min, u_max) -> _Bounds:
-        m = self.model.n_u
-        lo, hi = _check_bounds(
-            self.u_min if u_min is None else u_min, self.u_max if u_max is None else u_max, m
+        return _check_bounds(
+            self.u_min if u_min is None else u_min,
+            self.u_max if u_max is None else u_max,
+            self.model.n_u,
         )
-        return _Bounds(lo, hi, lo.tolist(), hi.tolist())
 
     def reset(self) -> None:
         """Drop the cached OSQP solvers (warm starts restart from scratch)."""
