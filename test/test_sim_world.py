@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import array
 import json
 import math
 
@@ -349,3 +350,42 @@ def test_driver_apply_matches_compute_torques():
         applied = sim.driver.apply(sim.time)
         assert np.array_equal(applied, expected)
         assert np.all(np.abs(applied) <= sim.robot.torque_limits)
+
+
+def test_command_arrays_validation_and_partial_commands():
+    with Simulation(scenario()) as sim:
+        names = sim.joint_names
+        n = len(names)
+        full = stand_command(sim)
+
+        def arrays(command):
+            return [array.array("d", getattr(command, f)) for f in ("q", "dq", "kp", "kd", "tau")]
+
+        assert sim.set_command_arrays(names, *arrays(full))
+        gains = [list(g) for g in sim.driver._gains]
+        # Rejected (counted, previous command kept): non-finite, negative gain, unknown joint.
+        bad_q, bad_kd = arrays(full), arrays(full)
+        bad_q[0][3] = math.inf
+        bad_kd[3][0] = -1.0
+        assert not sim.set_command_arrays(names, *bad_q)
+        assert not sim.set_command_arrays(names, *bad_kd)
+        assert not sim.set_command_arrays(["nope"], [0.0], [0.0], [1.0], [1.0], [0.0])
+        # Malformed: array sizes that match neither the names nor 1.
+        assert not sim.set_command_arrays(names, [0.0, 0.0], 0.0, 1.0, 1.0, 0.0)
+        assert not sim.set_command_arrays(names, "x", 0.0, 1.0, 1.0, 0.0)
+        assert sim.rejected_commands == 5 and sim.driver.rejected_commands == 3
+        assert [list(g) for g in sim.driver._gains] == gains and sim.commands_received == 1
+        # A partial command, joints out of order, scalars broadcast: only those joints change.
+        assert sim.set_command_arrays([names[5], names[2]], [0.5, 0.25], 0, 7, 1.5, 2)
+        kp, q, kd, dq, tau = sim.driver._gains
+        assert (q[5], q[2], kp[5], kp[2], kd[2], tau[5]) == (0.5, 0.25, 7.0, 7.0, 1.5, 2.0)
+        assert kp[0] == 60.0 and q[0] == full.q[0] and sim.commands_received == 2
+        # The array path and the JointCommand path drive the robot identically.
+        sim.step(50)
+        with Simulation(scenario()) as twin:
+            twin.set_command(full)
+            partial = JointCommand([names[5], names[2]], [0.5, 0.25], 0, 7, 1.5, 2)
+            twin.set_command(partial)
+            twin.step(50)
+            assert twin.joint_lists() == sim.joint_lists()
+        assert len(sim.driver._gains[0]) == n

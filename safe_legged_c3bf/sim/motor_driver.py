@@ -9,6 +9,8 @@ arriving for longer than ``timeout`` the drivers fall back to a damping mode
 from __future__ import annotations
 
 import enum
+import math
+from collections.abc import Sequence
 
 import numpy as np
 import pybullet
@@ -49,17 +51,14 @@ class MotorDriver:
         self._client = client
         self._robot = robot
         self._index_of = {name: i for i, name in enumerate(robot.joint_names)}
+        self._names = list(robot.joint_names)
         n = len(robot.joint_names)
         self.timeout = float(timeout)
         self.damping_kd = float(damping_kd)
-        self._q = np.zeros(n)
-        self._dq = np.zeros(n)
-        self._kp = np.zeros(n)
-        self._kd = np.zeros(n)
-        self._tau = np.zeros(n)
         self._last_command_time: float | None = None
         self._limits = robot.torque_limits.tolist()
         self._indices = robot.joint_indices.tolist()
+        #: The command in force, per joint in robot order, as plain floats: kp, q, kd, dq, tau.
         self._gains: tuple[list[float], ...] = tuple([0.0] * n for _ in range(5))
         self.mode = DriverMode.WAITING
         self.rejected_commands = 0
@@ -71,20 +70,53 @@ class MotorDriver:
         Commands with non-finite numbers, unknown joint names or negative gains are rejected
         and counted; the previous command stays in force until it times out.
         """
-        if not command.is_finite() or np.any(command.kp < 0) or np.any(command.kd < 0):
+        return self.set_targets(
+            command.names, command.q.tolist(), command.dq.tolist(), command.kp.tolist(),
+            command.kd.tolist(), command.tau.tolist(), now,
+        )
+
+    def set_targets(
+        self,
+        names: Sequence[str],
+        q: list[float],
+        dq: list[float],
+        kp: list[float],
+        kd: list[float],
+        tau: list[float],
+        now: float,
+    ) -> bool:
+        """Like :meth:`set_command` from float lists, each as long as ``names``.
+
+        The fast path for the ROS bridge (a command per state period): plain Python on
+        a dozen numbers is several times faster than building a :class:`JointCommand`.
+
+        Raises:
+            ValueError: when a list is not as long as ``names``.
+
+        """
+        n = len(names)
+        if any(len(v) != n for v in (q, dq, kp, kd, tau)):
+            raise ValueError(f"motor command lists must have {n} entries, one per joint")
+        isfinite = math.isfinite
+        if not (
+            all(map(isfinite, q)) and all(map(isfinite, dq)) and all(map(isfinite, kp))
+            and all(map(isfinite, kd)) and all(map(isfinite, tau))
+        ) or any(v < 0.0 for v in kp) or any(v < 0.0 for v in kd):
             self.rejected_commands += 1
             return False
-        try:
-            idx = np.array([self._index_of[name] for name in command.names], dtype=int)
-        except KeyError:
-            self.rejected_commands += 1
-            return False
-        self._q[idx] = command.q
-        self._dq[idx] = command.dq
-        self._kp[idx] = command.kp
-        self._kd[idx] = command.kd
-        self._tau[idx] = command.tau
-        self._gains = tuple(a.tolist() for a in (self._kp, self._q, self._kd, self._dq, self._tau))
+        if list(names) == self._names:  # every joint, in order: the usual case
+            self._gains = (list(kp), list(q), list(kd), list(dq), list(tau))
+        else:
+            try:
+                idx = [self._index_of[name] for name in names]
+            except KeyError:
+                self.rejected_commands += 1
+                return False
+            gains = tuple(list(g) for g in self._gains)
+            for column, values in zip(gains, (kp, q, kd, dq, tau), strict=True):
+                for i, v in zip(idx, values, strict=True):
+                    column[i] = v
+            self._gains = gains
         self._last_command_time = now
         return True
 
@@ -100,7 +132,8 @@ class MotorDriver:
     def compute_torques(self, q: np.ndarray, dq: np.ndarray, now: float) -> np.ndarray:
         """Torques (N m) the drivers apply given measured joint positions and velocities."""
         if self._update_mode(now) is DriverMode.ACTIVE:
-            tau = self._kp * (self._q - q) + self._kd * (self._dq - dq) + self._tau
+            kp, q_ref, kd, dq_ref, tau_ff = (np.array(g) for g in self._gains)
+            tau = kp * (q_ref - q) + kd * (dq_ref - dq) + tau_ff
         else:
             tau = -self.damping_kd * dq
         limits = self._robot.torque_limits

@@ -25,6 +25,7 @@ Typical use::
 
 from __future__ import annotations
 
+import array
 import json
 import math
 import os
@@ -94,6 +95,22 @@ def rotate_inverse(q: Sequence[float], v: Sequence[float]) -> tuple[float, float
         v[1] + 2.0 * (w * cy + z * cx - x * cz),
         v[2] + 2.0 * (w * cz + x * cy - y * cx),
     )
+
+
+def _float_list(values: ArrayLike, n: int) -> list[float]:
+    """``values`` as n floats (one value is repeated n times), as :class:`JointCommand` does.
+
+    Raises ValueError for any other size.
+    """
+    if isinstance(values, array.array) and values.typecode == "d":  # as rclpy gives them
+        out = values.tolist()
+    else:
+        out = np.asarray(values, dtype=float).reshape(-1).tolist()
+    if len(out) == 1 and n != 1:
+        out = out * n
+    if len(out) != n:
+        raise ValueError(f"{len(out)} entries for {n} joints")
+    return out
 
 
 def _json_number(x: float | None) -> float | None:
@@ -261,12 +278,16 @@ class Simulation:
 
         Malformed commands (array sizes that do not match) are rejected and counted.
         """
+        n = len(names)
         try:
-            command = JointCommand(list(names), q, dq, kp, kd, tau)
+            columns = [_float_list(v, n) for v in (q, dq, kp, kd, tau)]
         except (ValueError, TypeError):
             self.malformed_commands += 1
             return False
-        return self.set_command(command)
+        accepted = self.driver.set_targets(names, *columns, self.time)
+        if accepted:
+            self.commands_received += 1
+        return accepted
 
     def step(self, n: int = 1) -> None:
         """Advance physics by ``n`` steps (continues past the duration if asked to)."""
