@@ -399,7 +399,7 @@ class SafetyFilter:
                 if res is not None:
                     return res
             with np.errstate(all="ignore"):  # overflow etc. is detected and handled explicitly
-                return self._filter(x, u0, kin, obstacles, yaw, t0)
+                return self._filter(x, u0, ul, kin, obstacles, yaw, t0)
         except InvalidInputError:
             raise
         except Exception as exc:  # noqa: BLE001 - never raise on numerically hard cases
@@ -465,41 +465,47 @@ class SafetyFilter:
             solve_time=time.perf_counter() - t0,
         )
 
-    def _filter(self, x, u0, kin, obs: Obstacles, yaw, t0) -> FilterResult:
+    def _filter(self, x, u0, ul, kin, obs: Obstacles, yaw, t0) -> FilterResult:
         kin = PointKinematics(*(np.array(k, dtype=float) for k in kin))
         radius = obs.radius + self.margin
         terms = barrier_terms(kin, obs.center, obs.velocity, radius, obs.plane, self.v_eps)
-        band = terms.clearance <= _EMERGENCY_REL_CLEARANCE * radius * radius
-        if band.any() and self.margin > 0.0:
+        inside = terms.clearance <= _EMERGENCY_REL_CLEARANCE * radius * radius
+        if self.margin > 0.0 and inside.any():
             # Inside r + margin: use the exact barrier of the true radius r for those rows.
-            radius = np.where(band, obs.radius, radius)
+            radius = np.where(inside, obs.radius, radius)
             terms = barrier_terms(kin, obs.center, obs.velocity, radius, obs.plane, self.v_eps)
+            inside = terms.clearance <= _EMERGENCY_REL_CLEARANCE * radius * radius
         G = terms.lg_h
         c0 = terms.lf_h + self.gamma * terms.h  # constraint: G u + c0 >= 0
         if not (np.isfinite(c0).all() and np.isfinite(G).all()):
             return self._failsafe(x, yaw, len(obs), t0, "non-finite barrier terms")
-        inside = terms.clearance <= _EMERGENCY_REL_CLEARANCE * radius * radius
         if inside.any():
             return self._emergency(x, yaw, kin, terms, obs.plane, inside, c0, t0)
-        lo_b, hi_b = self._cur.lo, self._cur.hi
-        in_box = bool(((u0 >= lo_b) & (u0 <= hi_b)).all())
+        cur = self._cur
+        lo_b, hi_b = cur.lo, cur.hi
+        in_box = all(map(le, cur.lo_l, ul)) and all(map(le, ul, cur.hi_l))
         if in_box and (G @ u0 + c0 >= 0.0).all():
             return self._result(u0.copy(), FilterStatus.INACTIVE, terms, G, c0, "none", t0)
 
         norms = np.sqrt(np.einsum("ij,ij->i", G, G))
         dead = norms <= _ROW_ZERO  # rows that u cannot influence
-        scale = np.where(dead, 1.0, norms)
-        Gn = G / scale[:, None]
-        bn = -c0 / scale  # scaled constraint: Gn u >= bn
-        hopeless = dead & (c0 < 0.0)
+        any_dead = bool(dead.any())
+        if any_dead:
+            scale = np.where(dead, 1.0, norms)
+            Gn = G / scale[:, None]
+            bn = -c0 / scale  # scaled constraint: Gn u >= bn
+        else:
+            Gn = G / norms[:, None]
+            bn = -c0 / norms
+        hopeless = any_dead and bool((dead & (c0 < 0.0)).any())
 
-        if self.method == "auto" and not hopeless.any():
+        if self.method == "auto" and not hopeless:
             # Exact dual active-set solve (its first step is the closed-form projection).
-            live = ~dead if dead.any() else slice(None)
+            live = ~dead if any_dead else slice(None)
             sol = solve_box_qp(self._w_inv, u0, Gn[live], bn[live], lo_b, hi_b)
             if sol.u is not None:
-                u = np.clip(sol.u, lo_b, hi_b)
-                if self._verify(u, Gn, np.where(dead, -_OSQP_INF, bn)):
+                u = np.minimum(np.maximum(sol.u, lo_b), hi_b)  # np.clip, less overhead
+                if self._verify(u, Gn, np.where(dead, -_OSQP_INF, bn) if any_dead else bn):
                     return self._result(
                         u, FilterStatus.ACTIVE, terms, G, c0, "active_set", t0, norms=norms
                     )
@@ -514,9 +520,7 @@ class SafetyFilter:
         redundant = dead | (bn <= row_min)
         lo_rows = np.where(redundant, -_OSQP_INF, bn)
         infeasible = (
-            infeasible
-            or hopeless.any()
-            or bool((bn > row_max + _FEAS_TOL)[~redundant].any())
+            infeasible or hopeless or bool((bn > row_max + _FEAS_TOL)[~redundant].any())
         )
         q = -(self.weights @ u0)
         n = len(obs)

@@ -10,7 +10,6 @@ import math
 import sys
 from collections.abc import Callable, Iterable
 
-import numpy as np
 import rclpy
 from builtin_interfaces.msg import Time as TimeMsg
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -112,9 +111,9 @@ def odometry_is_finite(msg: Odometry) -> bool:
     values = [p.x, p.y, p.z, q.x, q.y, q.z, q.w]
     t = msg.twist.twist
     values += [t.linear.x, t.linear.y, t.linear.z, t.angular.x, t.angular.y, t.angular.z]
-    if not all(math.isfinite(v) for v in values):
+    if not all(map(math.isfinite, values)):
         return False
-    return float(np.linalg.norm([q.x, q.y, q.z, q.w])) > 1e-6
+    return q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w > 1e-12  # norm > 1e-6
 
 
 def diagnostic_status(
