@@ -14,6 +14,7 @@ from sensor_msgs.msg import Imu, JointState
 
 from safe_legged_c3bf.nodes.cdr_template import CdrTemplate, time_parts
 from safe_legged_c3bf.nodes.ros_common import to_time_msg
+from safe_legged_c3bf_msgs.msg import Obstacle, ObstacleArray
 
 STAMP = ["header.stamp.sec", "header.stamp.nanosec"]
 
@@ -21,7 +22,10 @@ STAMP = ["header.stamp.sec", "header.stamp.nanosec"]
 def _set(msg, path: str, value) -> None:
     *parents, name = path.split(".")
     for p in parents:
+        p, _, index = p.partition("[")
         msg = getattr(msg, p)
+        if index:
+            msg = msg[int(index[:-1])]
     if name.endswith("]"):
         name, _, index = name.partition("[")
         getattr(msg, name)[int(index[:-1])] = value
@@ -72,6 +76,14 @@ def test_state_messages_round_trip():
         field: [f"{field}[{i}]" for i in range(4)] for field in ("position", "velocity", "effort")
     }, rng)
     _check(Clock(), {"stamp": ["clock.sec", "clock.nanosec"]}, rng)
+    obstacles = ObstacleArray()
+    obstacles.header.frame_id = "odom"
+    obstacles.obstacles = [Obstacle(id=name, semi_axis_a=0.3) for name in ("a", "bb", "ccc")]
+    _check(obstacles, {"stamp": STAMP} | {
+        f"o{i}": [f"obstacles[{i}].center.{a}" for a in "xyz"]
+        + [f"obstacles[{i}].velocity.{a}" for a in "xyz"]
+        for i in (0, 2)
+    }, rng)
 
 
 def test_rejects_fields_it_cannot_patch():

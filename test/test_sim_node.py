@@ -127,6 +127,10 @@ def test_node_publishes_state_and_consumes_commands(ros_executor, tmp_path):
     truth = got["gt_obstacles"][-1].obstacles
     mover = next(o for o in truth if o.id == "mover")
     assert mover.velocity.y == pytest.approx(0.5)
+    script = next(o for o in node.simulation.obstacles if o.id == "mover").script
+    expected, _ = script.state(from_time_msg(got["gt_obstacles"][-1].header.stamp))
+    assert (mover.center.x, mover.center.y, mover.center.z) == pytest.approx(tuple(expected))
+    assert from_time_msg(got["gt_obstacles"][-1].header.stamp) == pytest.approx(2.0)
     assert mover.velocity_source == Obstacle.VELOCITY_MEASURED
     assert got["gt"] and not got["gt"][-1].fallen and got["gt"][-1].min_distance > 0.0
     assert got["gt"][-1].header.frame_id == topics.ODOM_FRAME

@@ -48,22 +48,26 @@ def time_parts(seconds: float) -> tuple[int, int]:
     return int(sec), int(round((seconds - sec) * 1e9)) % 1_000_000_000
 
 
-def _split(path: str) -> tuple[list[str], int | None]:
-    """'a.b.c' -> (['a', 'b', 'c'], None); 'a.b[3]' -> (['a', 'b'], 3)."""
-    index = None
-    if path.endswith("]"):
-        path, _, rest = path.partition("[")
-        index = int(rest[:-1])
-    return path.split("."), index
+def _walk(msg: Any, path: str) -> tuple[Any, str, int | None]:
+    """(parent message, field name, element index or None) of the field at ``path``.
+
+    ``path`` is dotted; any component may index an array or sequence: ``"a.b[2].c"``.
+    """
+    *parents, last = path.split(".")
+    obj = msg
+    for part in parents:
+        name, _, index = part.partition("[")
+        obj = getattr(obj, name)
+        if index:
+            obj = obj[int(index[:-1])]
+    name, _, index = last.partition("[")
+    return obj, name, int(index[:-1]) if index else None
 
 
 def _field_code(msg: Any, path: str) -> str:
     """The struct code of the (element) type of the field at ``path``."""
-    names, index = _split(path)
-    obj = msg
-    for name in names[:-1]:
-        obj = getattr(obj, name)
-    kind = obj.get_fields_and_field_types()[names[-1]]
+    parent, name, index = _walk(msg, path)
+    kind = parent.get_fields_and_field_types()[name]
     if index is not None:  # sequence<double>, sequence<double, N> or double[N]
         kind = kind.removeprefix("sequence<").split(",")[0].split("[")[0].rstrip(">")
     try:
@@ -73,14 +77,11 @@ def _field_code(msg: Any, path: str) -> str:
 
 
 def _set_field(msg: Any, path: str, value: float | int) -> None:
-    names, index = _split(path)
-    obj = msg
-    for name in names[:-1]:
-        obj = getattr(obj, name)
+    parent, name, index = _walk(msg, path)
     if index is None:
-        setattr(obj, names[-1], value)
+        setattr(parent, name, value)
     else:
-        getattr(obj, names[-1])[index] = value
+        getattr(parent, name)[index] = value
 
 
 def _sentinel(code: str, k: int) -> float | int:
@@ -101,7 +102,8 @@ class CdrTemplate:
         """Serialize ``prototype``; locate the fields of each group (name -> field paths).
 
         A field path is dotted (``"header.stamp.sec"``), with ``[i]`` for an element of an
-        array or sequence (``"position[3]"``; the prototype's sequence must be that long).
+        array or sequence (``"position[3]"``, ``"obstacles[1].center.x"``; the prototype's
+        sequences must be that long).
         """
         self._buffer = bytearray(serialize_message(prototype))
         if self._buffer[:2] != b"\x00\x01":

@@ -125,13 +125,15 @@ def _stamp_ns(stamp: Any) -> int:
     return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
 
 
-def obstacle_to_msg(state: ObstacleState) -> Obstacle:
-    """safe_legged_c3bf_msgs/Obstacle from an :class:`ObstacleState`."""
-    msg = Obstacle()
+def obstacle_to_msg(state: ObstacleState, msg: Obstacle | None = None) -> Obstacle:
+    """safe_legged_c3bf_msgs/Obstacle from an :class:`ObstacleState` (filled into ``msg``)."""
+    if msg is None:
+        msg = Obstacle()
     msg.id = state.id
     msg.plane = int(state.plane)
-    msg.center.x, msg.center.y, msg.center.z = (float(v) for v in state.center)
-    msg.velocity.x, msg.velocity.y, msg.velocity.z = (float(v) for v in state.velocity)
+    center, velocity = msg.center, msg.velocity
+    center.x, center.y, center.z = state.center.tolist()
+    velocity.x, velocity.y, velocity.z = state.velocity.tolist()
     msg.semi_axis_a, msg.semi_axis_b = float(state.semi_axes[0]), float(state.semi_axes[1])
     msg.orientation = float(state.orientation)
     msg.extent = float(state.extent)
@@ -258,7 +260,10 @@ class SimulatorNode(Node):
         self._gt_safety = GroundTruthSafety()
         self._gt_safety.header.frame_id = topics.ODOM_FRAME
 
-        self._gt_obstacles: ObstacleArray | None = None
+        self._gt_obstacles: CdrTemplate | None = None
+        self._detections = ObstacleArray()
+        self._detections.header.frame_id = topics.ODOM_FRAME
+        self._detection_pool = [Obstacle() for _ in sim.obstacles]
         self._moving = [i for i, o in enumerate(sim.obstacles) if o.moving]
         self._finished = False
         self._summary_written = False
@@ -619,22 +624,33 @@ class SimulatorNode(Node):
 
     def _publish_detections(self) -> None:
         detections = self._sim.detections(include_ids=not self._strip_ids)
-        self._pub_detections.publish(self._obstacle_array(detections))
+        # Obstacle messages are reused from frame to frame.
+        pool = self._detection_pool
+        pool.extend(Obstacle() for _ in range(len(detections) - len(pool)))
+        msg = self._detections
+        msg.header.stamp = to_time_msg(self._sim.time)
+        msg.obstacles = [
+            obstacle_to_msg(d, m)
+            for d, m in zip(detections, pool[: len(detections)], strict=True)
+        ]
+        self._pub_detections.publish(msg)
 
-    def _ground_truth_obstacles(self) -> ObstacleArray:
+    def _ground_truth_obstacles(self) -> bytes:
+        """/ground_truth/obstacles now, serialized: only the moving obstacles change."""
         sim = self._sim
         if self._gt_obstacles is None:
-            self._gt_obstacles = self._obstacle_array(sim.obstacle_states())
-            return self._gt_obstacles
-        msg = self._gt_obstacles
-        msg.header.stamp = to_time_msg(sim.time)
+            msg = self._obstacle_array(sim.obstacle_states())
+            self._gt_obstacles = CdrTemplate(msg, {"stamp": _STAMP} | {
+                f"moving{i}": _xyz(f"obstacles[{i}].center") + _xyz(f"obstacles[{i}].velocity")
+                for i in self._moving
+            })
+        template = self._gt_obstacles
         t = sim.time
+        template.set("stamp", *time_parts(t))
         for i in self._moving:
             position, velocity = sim.obstacles[i].script.state(t)
-            out = msg.obstacles[i]
-            out.center.x, out.center.y, out.center.z = (float(v) for v in position)
-            out.velocity.x, out.velocity.y, out.velocity.z = (float(v) for v in velocity)
-        return msg
+            template.set(f"moving{i}", *position.tolist(), *velocity.tolist())
+        return template.bytes()
 
     def _publish_ground_truth(self) -> None:
         sim = self._sim
