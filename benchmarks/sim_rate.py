@@ -1,17 +1,17 @@
 """Simulator throughput and CPU use, with the A1 and five obstacles, publishing all topics.
 
-The simulator node runs in this process (its physics thread plus an executor spun by this
-script's main thread), together with a stub controller node that sends a constant standing
-MotorCommand at 50 Hz (so the drivers stay active). A separate subscriber process receives
-every topic the simulator publishes (so the messages really go out over DDS) and reports how
-many it got. Two measurements:
+The simulator node runs alone in this process: its physics thread plus an executor spun by
+this script's main thread, woken by the node's timers only (as when the node runs as its
+own process). A second process stands for the rest of the graph: it receives every topic
+the simulator publishes (so the messages really go out over DDS, /imu and /joint_states at
+250 Hz included) and reports how many it got, and it sends a constant standing
+MotorCommand at 50 Hz (so the drivers stay active) once it hears every topic. Two
+measurements:
 
 1. real_time_factor 0 (as fast as possible): physics steps per wall second;
-2. real_time_factor 1: CPU use of this process (physics thread, executor thread, DDS threads
-   and the stub), from time.process_time() over a wall interval, in % of one core, and the
-   physics thread's share of it (its own CPU clock). The executor is spun the way a node's
-   executor spins (woken by timers and messages only, not polled), so its wake-ups are the
-   simulator's diagnostics timer and the stub's 50 Hz timer.
+2. real_time_factor 1: CPU use of the simulator process (physics thread, executor thread,
+   DDS threads), from time.process_time() over a wall interval, in % of one core, and the
+   physics thread's share of it (its own CPU clock).
 
 The machine's load average is printed too: on a shared machine the numbers vary with it
 (contention slows the same work down and the process may not even get the CPU it asks for).
@@ -60,19 +60,25 @@ def _sim_topics():
     from safe_legged_c3bf import topics
 
     return [
-        topics.CLOCK, topics.ODOM, topics.JOINT_STATES, topics.OBSTACLE_DETECTIONS,
+        topics.CLOCK, topics.ODOM, topics.IMU, topics.JOINT_STATES, topics.OBSTACLE_DETECTIONS,
         topics.GROUND_TRUTH_SAFETY, topics.GROUND_TRUTH_OBSTACLES, topics.DIAGNOSTICS,
     ]
 
 
-def count_topics() -> None:
-    """Subscriber process: count messages on every simulator topic until stdin closes."""
+def graph_process(command: str) -> None:
+    """The rest of the graph: count every simulator topic, send ``command`` at 50 Hz.
+
+    ``command`` is JSON: {"name": [...], "q": [...]}. Runs until stdin closes, then prints
+    the counts as JSON.
+    """
     import rclpy
 
+    from safe_legged_c3bf import topics
     from safe_legged_c3bf.nodes.ros_common import qos
+    from safe_legged_c3bf_msgs.msg import MotorCommand
 
     rclpy.init()
-    node = rclpy.create_node("topic_counter")
+    node = rclpy.create_node("sim_rate_graph")
     counts = {t.name: 0 for t in _sim_topics()}
 
     def counter(name):
@@ -81,12 +87,36 @@ def count_topics() -> None:
 
         return callback
 
-    for topic in _sim_topics():
-        node.create_subscription(topic.msg_class(), topic.name, counter(topic.name), qos(topic))
+    subscriptions = [  # raw: counting needs no deserialization
+        node.create_subscription(
+            topic.msg_class(), topic.name, counter(topic.name), qos(topic), raw=True
+        )
+        for topic in _sim_topics()
+    ]
+    spec = json.loads(command)
+    n = len(spec["name"])
+    msg = MotorCommand(
+        name=spec["name"], q=spec["q"], dq=[0.0] * n, kp=[60.0] * n, kd=[2.0] * n, tau=[0.0] * n
+    )
+    pub = node.create_publisher(
+        MotorCommand, topics.JOINT_COMMANDS.name, qos(topics.JOINT_COMMANDS)
+    )
+
     stop = threading.Event()
+
+    def send() -> None:
+        # From a thread of its own: a timer would wait behind hundreds of message callbacks.
+        # Physics starts with the first command: only once every topic is heard.
+        while not stop.wait(0.02):
+            if all(sub.get_publisher_count() > 0 for sub in subscriptions):
+                pub.publish(msg)
+
+    sender = threading.Thread(target=send, daemon=True)
+    sender.start()
     threading.Thread(target=lambda: (sys.stdin.read(), stop.set()), daemon=True).start()
     while not stop.is_set():
         rclpy.spin_once(node, timeout_sec=0.05)
+    sender.join()
     print(json.dumps(counts), flush=True)
     node.destroy_node()
     rclpy.try_shutdown()
@@ -115,15 +145,8 @@ def run(
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.parameter import Parameter
 
-    from safe_legged_c3bf import topics
-    from safe_legged_c3bf.nodes.ros_common import qos
     from safe_legged_c3bf.nodes.simulator_node import SimulatorNode
-    from safe_legged_c3bf_msgs.msg import MotorCommand
 
-    counter = subprocess.Popen(
-        [sys.executable, __file__, "--count-topics"],
-        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
-    )
     context = rclpy.Context()
     rclpy.init(context=context)
     executor = SingleThreadedExecutor(context=context)
@@ -132,39 +155,25 @@ def run(
         parameter_overrides=[
             Parameter("scenario", value=scenario_path),
             Parameter("real_time_factor", value=rtf),
+            # The robot keeps standing even if a busy machine delays a 50 Hz command by more
+            # than the default 0.1 s (sim time, which runs faster at real_time_factor 0).
+            Parameter("command_timeout", value=1.0),
         ] + [Parameter(k, value=v) for k, v in (overrides or {}).items()],
     )
-    stub = rclpy.create_node("stub_controller", context=context)
     sim = sim_node.simulation
     pose = sim.robot.spec.standing_pose
-    n = len(sim.joint_names)
-    command = MotorCommand(
-        name=sim.joint_names, q=[pose[j] for j in sim.joint_names], dq=[0.0] * n,
-        kp=[60.0] * n, kd=[2.0] * n, tau=[0.0] * n,
+    command = json.dumps({"name": sim.joint_names, "q": [pose[j] for j in sim.joint_names]})
+    graph = subprocess.Popen(
+        [sys.executable, __file__, "--graph-process", command],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
     )
-    pub = stub.create_publisher(
-        MotorCommand, topics.JOINT_COMMANDS.name, qos(topics.JOINT_COMMANDS)
-    )
-    stub.create_timer(0.02, lambda: pub.publish(command))
     executor.add_node(sim_node)
     try:
-        # The subscriber process must hear every topic before physics starts.
-        names = {t.name for t in _sim_topics()}
-        deadline = time.monotonic() + 20.0
-        while time.monotonic() < deadline:
-            matched = [
-                p for p in sim_node.publishers
-                if p.topic_name in names and p.get_subscription_count() > 0
-            ]
-            if len(matched) == len(names):
-                break
-            executor.spin_once(timeout_sec=0.01)
-        else:
-            raise RuntimeError("the topic counter process was not discovered")
-        executor.add_node(stub)
-        deadline = time.monotonic() + 10.0
+        deadline = time.monotonic() + 30.0
         while sim_node.waiting_for_command and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.01)
+        if sim_node.waiting_for_command:
+            raise RuntimeError("no command from the graph process (discovery failed?)")
         start_sim = sim.time
         _spin_for(executor, 0.5)  # warm-up
         physics0 = _thread_cpu(PHYSICS_THREAD)
@@ -176,19 +185,17 @@ def run(
             "cpu": time.process_time() - cpu0,
             "physics_cpu": _thread_cpu(PHYSICS_THREAD) - physics0,
         }
-        _spin_for(executor, 0.3)  # let the last messages arrive, then stop the counter
+        _spin_for(executor, 0.3)  # let the last messages arrive, then stop the graph process
     finally:
-        for node in (sim_node, stub):
-            if node in executor.get_nodes():
-                executor.remove_node(node)
-            node.destroy_node()
+        executor.remove_node(sim_node)
+        sim_node.destroy_node()
         executor.shutdown()
         rclpy.try_shutdown(context=context)
         try:
-            out, _ = counter.communicate(input="", timeout=30)  # closing stdin stops it
+            out, _ = graph.communicate(input="", timeout=30)  # closing stdin stops it
         except subprocess.TimeoutExpired:
-            counter.kill()
-            out, _ = counter.communicate()
+            graph.kill()
+            out, _ = graph.communicate()
     counts = json.loads(out.strip().splitlines()[-1])
     total_sim = sim.time - start_sim  # physics has stopped: every message sent is counted
     result["rates"] = {name: c / total_sim for name, c in counts.items()}
@@ -197,17 +204,17 @@ def run(
 
 def _print_rates(rates: dict[str, float]) -> None:
     text = ", ".join(f"{name} {rate:.0f}" for name, rate in rates.items())
-    print(f"    received by a subscriber process, messages per sim second: {text}")
+    print(f"    received by the graph process, messages per sim second: {text}")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=5.0, help="wall seconds per measurement")
     parser.add_argument("--state-rate", type=float, help="simulator state_rate (Hz)")
-    parser.add_argument("--count-topics", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--graph-process", metavar="COMMAND_JSON", help=argparse.SUPPRESS)
     args = parser.parse_args()
-    if args.count_topics:
-        count_topics()
+    if args.graph_process:
+        graph_process(args.graph_process)
         return
     from safe_legged_c3bf.ros_domain import isolate_environment
 
