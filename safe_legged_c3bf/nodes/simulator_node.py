@@ -15,12 +15,15 @@ A thin wrapper around :class:`safe_legged_c3bf.sim.world.Simulation`:
   wall timer: at the 500 Hz of states and commands, rclpy's executor costs more CPU per
   wake-up than a physics step, and commands keep reaching the drivers when a shared executor
   is busy.
-* publishes in sim time ``/imu`` and ``/joint_states`` (every state period), ``/odom`` (at
-  ``odom_rate``), ``/clock``
-  (every 1 / ``clock_rate``, stamped like the state published with it),
-  ``/obstacles/detections`` (noisy, no velocities), ``/ground_truth/safety`` and
-  ``/ground_truth/obstacles``, and ``/diagnostics`` (motor driver mode, rejected commands,
-  lockstep timeouts; WARN while the drivers damp after a command timeout);
+* publishes in sim time ``/imu`` and ``/joint_states`` (every state period), ``/odom`` and
+  ``/clock`` (every round(``state_rate`` / ``odom_rate``) and round(``state_rate`` /
+  ``clock_rate``) state periods: 125 Hz with the defaults; /clock stamped like the state
+  published with it), ``/obstacles/detections`` (noisy, no velocities),
+  ``/ground_truth/safety`` and ``/ground_truth/obstacles``, and ``/diagnostics`` (motor driver
+  mode, rejected commands, lockstep timeouts; WARN while the drivers damp after a command
+  timeout). The messages that change only in a few numbers (/clock, /odom, /imu,
+  /joint_states, /ground_truth/obstacles) are serialized once and patched in place
+  (:mod:`safe_legged_c3bf.nodes.cdr_template`);
 * before the first command (``wait_for_first_command``) physics does not advance: /clock and
   the state at t = 0 are republished at 10 Hz so controllers in slow-to-discover processes
   can start;
