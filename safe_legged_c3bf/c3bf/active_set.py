@@ -98,6 +98,7 @@ def solve_box_qp(
     b: np.ndarray,
     lo: np.ndarray,
     hi: np.ndarray,
+    bounded: bool | None = None,
 ) -> ActiveSetResult:
     """Exact ``argmin (u-u0)^T W (u-u0)`` s.t. ``a u >= b``, ``lo <= u <= hi`` (see module).
 
@@ -108,6 +109,7 @@ def solve_box_qp(
         b: ``(k,)`` right-hand sides (finite).
         lo: ``(m,)`` lower bounds (``-inf``: none).
         hi: ``(m,)`` upper bounds, ``lo <= hi`` (``inf``: none).
+        bounded: whether every bound is finite, if the caller knows (None: checked here).
 
     Returns:
         :class:`ActiveSetResult`: ``u`` the optimum (not clipped; every row and bound holds
@@ -116,7 +118,9 @@ def solve_box_qp(
 
     """
     m = u0.shape[0]
-    if m < len(_BOX) and np.isfinite(lo).all() and np.isfinite(hi).all():
+    if bounded is None:
+        bounded = bool(np.isfinite(lo).all() and np.isfinite(hi).all())
+    if bounded and m < len(_BOX):
         A = np.concatenate((a, _BOX[m]))  # the usual case: every input bounded
         r = np.concatenate((b, lo, -hi)) - A @ u0  # need A d >= r
     else:
@@ -130,19 +134,17 @@ def solve_box_qp(
     V = w_inv @ A.T  # (m, N): columns W^-1 a_i
     K = A @ V  # Gram matrix (symmetric): row values are A d = K mu
     kk = K.item
-    inv_norm = 1.0 / np.sqrt(np.diagonal(K))
     n_rows = r.shape[0]
 
     S: list[int] = []  # active rows, linearly independent
     mu = np.zeros(n_rows)  # multipliers (non-zero only on S and the row being added)
     for _ in range(_MAX_STEPS_PER_ROW * (n_rows + m)):
-        # Step 1: the most violated row (scaled by its W^-1 norm), if any.
+        # Step 1: the most violated row (unit rows: the furthest from its half-space), if any.
         s = K @ mu - r  # a_i d - r_i
-        v = s * inv_norm
         for i in S:
-            v[i] = 0.0  # tight by construction
-        p = int(v.argmin())
-        if not v[p] < -viol_tol:
+            s[i] = 0.0  # tight by construction
+        p = int(s.argmin())
+        if not s[p] < -viol_tol:
             return ActiveSetResult(u0 + V @ mu, False)
         sp = float(s[p])
         kpp = kk(p, p)
