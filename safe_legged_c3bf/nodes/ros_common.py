@@ -91,9 +91,12 @@ def twist_to_command(msg: Twist) -> VelocityCommand:
     return VelocityCommand(msg.linear.x, msg.linear.y, msg.linear.z, msg.angular.z)
 
 
-def command_to_twist(cmd: VelocityCommand) -> Twist:
-    """Twist (base_link) from a VelocityCommand."""
-    msg = Twist()
+def command_to_twist(cmd: VelocityCommand, out: Twist | None = None) -> Twist:
+    """Twist (base_link) from a VelocityCommand; ``out``: a Twist to fill instead of a new one.
+
+    Reusing one Twist for a publisher is safe: ``publish`` serialises it before returning.
+    """
+    msg = Twist() if out is None else out
     msg.linear.x, msg.linear.y, msg.linear.z = float(cmd.vx), float(cmd.vy), float(cmd.vz)
     msg.angular.z = float(cmd.yaw_rate)
     return msg

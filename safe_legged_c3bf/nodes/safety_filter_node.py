@@ -80,6 +80,7 @@ class SafetyFilterNode(Node):
         self.cycles = 0
 
         self._cmd_pub = ros_common.publisher(self, topics.CMD_VEL_SAFE)
+        self._cmd_msg = Twist()  # filled and published every cycle (publish serialises it)
         self._state_pub = ros_common.publisher(self, topics.FILTER_STATE)
         self._diag_pub = ros_common.publisher(self, topics.DIAGNOSTICS)
         ros_common.subscription(self, topics.CMD_VEL, self._on_reference)
@@ -156,7 +157,7 @@ class SafetyFilterNode(Node):
             t, self._reference, self._reference_time, self._base, self._obstacles,
             self._obstacles_time,
         )
-        self._cmd_pub.publish(ros_common.command_to_twist(out.command))
+        self._cmd_pub.publish(ros_common.command_to_twist(out.command, self._cmd_msg))
         if received is not None:
             self.latencies.append(time.perf_counter() - received)
             if len(self.latencies) > 10000:
