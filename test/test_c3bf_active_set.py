@@ -136,3 +136,35 @@ def test_opposite_rows_without_room_are_infeasible():
     # A row beyond the box.
     res = solve_box_qp(np.eye(2), np.zeros(2), A[:1], np.array([1.5]), -np.ones(2), np.ones(2))
     assert res.u is None and res.infeasible
+
+
+def test_warm_start_from_any_rows_gives_the_same_optimum():
+    """The previous active rows, random rows, dependent or out-of-range rows: the solver
+    either starts from them (only if dual feasible) or ignores them; the answer is the same."""
+    rng = np.random.default_rng(13)
+    warm_used = 0
+    for trial in range(400):
+        W, u0, A, b, lo, hi = random_problem(rng, trial)
+        w_inv = np.linalg.inv(W)
+        cold = solve_box_qp(w_inv, u0, A, b, lo, hi)
+        n_rows = len(b) + np.isfinite(lo).sum() + np.isfinite(hi).sum()
+        candidates = [
+            cold.active,  # the exact optimum's active rows: no step needed
+            tuple(rng.integers(0, n_rows, rng.integers(1, 4)).tolist()),
+            (0, 0, 1),
+            (n_rows + 3,),
+        ]
+        # A neighbouring problem warm-started from this one's active set (the filter's use).
+        u0_next = u0 + rng.normal(scale=0.05, size=u0.shape)
+        b_next = b + rng.normal(scale=0.01, size=b.shape)
+        ref_next = solve_box_qp(w_inv, u0_next, A, b_next, lo, hi)
+        got_next = solve_box_qp(w_inv, u0_next, A, b_next, lo, hi, warm=cold.active)
+        for ref, got in [(ref_next, got_next)] + [
+            (cold, solve_box_qp(w_inv, u0, A, b, lo, hi, warm=w)) for w in candidates
+        ]:
+            assert got.infeasible == ref.infeasible, trial
+            assert (got.u is None) == (ref.u is None), trial
+            if ref.u is not None:
+                np.testing.assert_allclose(got.u, ref.u, atol=1e-9)
+        warm_used += bool(cold.active) and cold.u is not None
+    assert warm_used > 100

@@ -49,14 +49,21 @@ _VIOL_TOL = 1e-12  # a row is violated below -_VIOL_TOL * (1 + max |r|)
 _DEP_TOL = 1e-10  # squared distance to the span of S below _DEP_TOL * K_pp: dependent
 _POS_TOL = 1e-12  # a step component counts as positive above _POS_TOL * (1 + max |comp|)
 _MAX_STEPS_PER_ROW = 6
+_WARM_DEP = 1e-6  # warm-start rows count as dependent below this Gram determinant ratio
 _BOX = [np.concatenate((np.eye(k), -np.eye(k))) for k in range(4)]  # u >= lo, -u >= -hi
 
 
 class ActiveSetResult(NamedTuple):
-    """``u``: the optimum (None if not found); ``infeasible``: proven infeasible."""
+    """Result of :func:`solve_box_qp`.
+
+    ``u``: the optimum (None if not found); ``infeasible``: proven infeasible; ``active``: the
+    final active rows (the rows of ``a``, then the finite lower bounds, then the finite upper
+    bounds), to warm-start the next, similar problem.
+    """
 
     u: np.ndarray | None
     infeasible: bool
+    active: tuple[int, ...] = ()
 
 
 def _solve(ks: list[list[float]], rhs: list[float]) -> list[float] | None:
@@ -91,6 +98,36 @@ def _solve(ks: list[list[float]], rhs: list[float]) -> list[float] | None:
         return None
 
 
+def _warm_start(warm, kk, r, n_rows: int, m: int, mu: np.ndarray) -> list[int]:
+    """Active rows to start from: ``warm`` if it is a dual-feasible S-pair, else none.
+
+    The equality-constrained minimiser on rows ``S`` has multipliers ``K_SS^-1 r_S``; it is a
+    valid starting point of the dual method when the rows are independent (Gram determinant
+    not small against the product of its diagonal) and every multiplier is ``>= 0``.
+    Writes the multipliers into ``mu``.
+    """
+    S = list(dict.fromkeys(i for i in warm if 0 <= i < n_rows))
+    if not 0 < len(S) <= min(m, 3):
+        return []
+    ks = [[kk(i, j) for j in S] for i in S]
+    diag = math.prod(ks[i][i] for i in range(len(S)))
+    if len(S) == 2:
+        det = ks[0][0] * ks[1][1] - ks[0][1] ** 2
+    elif len(S) == 3:
+        (a, b, c), (_, d, e), (_, _, f) = ks
+        det = a * (d * f - e * e) - b * (b * f - c * e) + c * (b * e - c * d)
+    else:
+        det = diag
+    if not det > _WARM_DEP * diag:
+        return []
+    lam = _solve(ks, [float(r[i]) for i in S])
+    if lam is None or not all(x >= 0.0 and math.isfinite(x) for x in lam):
+        return []
+    for i, x in zip(S, lam, strict=True):
+        mu[i] = x
+    return S
+
+
 def solve_box_qp(
     w_inv: np.ndarray,
     u0: np.ndarray,
@@ -99,6 +136,7 @@ def solve_box_qp(
     lo: np.ndarray,
     hi: np.ndarray,
     bounded: bool | None = None,
+    warm: tuple[int, ...] = (),
 ) -> ActiveSetResult:
     """Exact ``argmin (u-u0)^T W (u-u0)`` s.t. ``a u >= b``, ``lo <= u <= hi`` (see module).
 
@@ -110,6 +148,9 @@ def solve_box_qp(
         lo: ``(m,)`` lower bounds (``-inf``: none).
         hi: ``(m,)`` upper bounds, ``lo <= hi`` (``inf``: none).
         bounded: whether every bound is finite, if the caller knows (None: checked here).
+        warm: rows to start from (e.g. the previous call's ``active``). Used only if they are
+            linearly independent and their equality-constrained minimiser has multipliers
+            ``>= 0`` (a dual-feasible start, so the result is the same optimum); else ignored.
 
     Returns:
         :class:`ActiveSetResult`: ``u`` the optimum (not clipped; every row and bound holds
@@ -138,6 +179,8 @@ def solve_box_qp(
 
     S: list[int] = []  # active rows, linearly independent
     mu = np.zeros(n_rows)  # multipliers (non-zero only on S and the row being added)
+    if warm:
+        S = _warm_start(warm, kk, r, n_rows, m, mu)
     for _ in range(_MAX_STEPS_PER_ROW * (n_rows + m)):
         # Step 1: the most violated row (unit rows: the furthest from its half-space), if any.
         s = K @ mu - r  # a_i d - r_i
@@ -145,7 +188,7 @@ def solve_box_qp(
             s[i] = 0.0  # tight by construction
         p = int(s.argmin())
         if not s[p] < -viol_tol:
-            return ActiveSetResult(u0 + V @ mu, False)
+            return ActiveSetResult(u0 + V @ mu, False, tuple(S))
         sp = float(s[p])
         kpp = kk(p, p)
         # Step 2: add p, dropping rows whose multiplier would turn negative on the way.

@@ -355,6 +355,7 @@ class SafetyFilter:
         }
         self._hard: dict[int, _HardQP] = {}
         self._relaxed: dict[int, _RelaxedQP] = {}
+        self._warm: tuple = (None, ())  # (row layout, active rows) of the last active-set solve
 
     # ------------------------------------------------------------------ public API
     def filter(
@@ -424,9 +425,10 @@ class SafetyFilter:
         )
 
     def reset(self) -> None:
-        """Drop the cached OSQP solvers (warm starts restart from scratch)."""
+        """Drop the cached OSQP solvers and active set (warm starts restart from scratch)."""
         self._hard.clear()
         self._relaxed.clear()
+        self._warm = (None, ())
 
     # ------------------------------------------------------------------ internals
     def _filter_one(self, kin, u0, ul, obs: Obstacles, t0) -> FilterResult | None:
@@ -537,7 +539,13 @@ class SafetyFilter:
         if self.method == "auto" and not hopeless:
             # Exact dual active-set solve (its first step is the closed-form projection).
             live = ~dead if any_dead else slice(None)
-            sol = solve_box_qp(self._w_inv, u0, Gn[live], bn[live], lo_b, hi_b, cur.finite)
+            # Warm start from the last call's active rows when the row layout is the same.
+            layout = (len(obs), cur.finite) if not any_dead else None
+            warm = self._warm[1] if layout is not None and self._warm[0] == layout else ()
+            sol = solve_box_qp(
+                self._w_inv, u0, Gn[live], bn[live], lo_b, hi_b, cur.finite, warm
+            )
+            self._warm = (layout, sol.active)
             if sol.u is not None:
                 u = np.minimum(np.maximum(sol.u, lo_b), hi_b)  # np.clip, less overhead
                 if self._verify(u, Gn, np.where(dead, -_OSQP_INF, bn) if any_dead else bn):
