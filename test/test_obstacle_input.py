@@ -65,6 +65,7 @@ def test_vectorised_conversion_matches_the_per_obstacle_loop():
         for given in (obs, ObstacleSet.from_inputs(obs)):
             got, ids = to_c3bf_obstacles(given, *args)
             assert ids == ids_e, trial
+            assert got.planes_present == expected.planes_present
             for name in ("center", "velocity", "radius", "plane"):
                 np.testing.assert_allclose(getattr(got, name), getattr(expected, name),
                                            rtol=0, atol=1e-15, err_msg=name)

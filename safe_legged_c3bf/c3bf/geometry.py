@@ -205,15 +205,18 @@ class Obstacles:
         )
 
     @classmethod
-    def from_validated(cls, center, velocity, radius, plane) -> Obstacles:
+    def from_validated(cls, center, velocity, radius, plane, planes_present=None) -> Obstacles:
         """Wrap arrays whose validity the caller guarantees: no copy, no per-array checks.
 
         For per-cycle sets derived from inputs validated once (e.g. when a message arrives):
         ``center``/``velocity`` float ``(n, 2)``, ``radius`` float ``(n,)``, all finite,
         radii > 0, ``plane`` integer ``(n,)`` of :class:`Plane` values. The arrays are made
-        read-only (the caller must not keep writing to them).
+        read-only (the caller must not keep writing to them). ``planes_present``, if given,
+        must equal the set of planes in ``plane`` (it then need not be computed).
         """
         new = object.__new__(cls)
+        if planes_present is not None:
+            new.__dict__["planes_present"] = planes_present
         for name, arr in (
             ("center", center),
             ("velocity", velocity),

@@ -12,11 +12,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
 from safe_legged_c3bf.c3bf import InvalidInputError, Obstacles, Plane
+
+_VERTICAL = frozenset({Plane.VERTICAL})
 
 
 @dataclass(frozen=True)
@@ -74,6 +77,27 @@ class ObstacleSet:
     size: np.ndarray
     extent: np.ndarray
     all_vertical: bool
+    _radii: dict = field(default_factory=dict, repr=False)  # inflated radii per parameters
+
+    @cached_property
+    def xy(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(n, 2)`` x-y centres and x-y velocities (read-only copies)."""
+        c, v = self.center[:, :2].copy(), self.velocity[:, :2].copy()
+        c.setflags(write=False)
+        v.setflags(write=False)
+        return c, v
+
+    def vertical_radius(self, robot_width: float, safety_margin: float, tie_break: float):
+        """``size + robot_width / 2 + safety_margin + tie_break`` (cached, read-only)."""
+        key = (robot_width, safety_margin, tie_break)
+        r = self._radii.get(key)
+        if r is None:
+            r = self.size + 0.5 * robot_width + safety_margin + tie_break
+            if not np.isfinite(r).all():
+                raise InvalidInputError("inflated obstacle radius overflowed")
+            r.setflags(write=False)
+            self._radii[key] = r
+        return r
 
     @classmethod
     def from_arrays(cls, ids, plane, center, velocity, semi_axes, extent) -> ObstacleSet:
@@ -165,41 +189,43 @@ def to_c3bf_obstacles(
         obstacles = ObstacleSet.from_inputs(obstacles)
     if len(obstacles) == 0:
         return Obstacles.empty(), []
-    c = obstacles.center + dt_predict * obstacles.velocity
-    vel = obstacles.velocity
-    size = obstacles.size
     plane = obstacles.plane
     ids = list(obstacles.ids)
     if obstacles.all_vertical:  # the common case (pillars, people): fewer operations
         # (x, y) moved tie_break to the robot's right (sin yaw, -cos yaw).
-        center = c[:, :2] + np.array(
+        c2, velocity = obstacles.xy
+        center = (c2 + dt_predict * velocity) + np.array(
             [tie_break * math.sin(robot_yaw), tie_break * -math.cos(robot_yaw)]
         )
-        velocity = vel[:, :2]
-        radius = size + 0.5 * robot_width + safety_margin + tie_break
-    else:
-        vertical = plane == int(Plane.VERTICAL)
-        half_span = 0.5 * obstacles.extent + 0.5 * robot_width + horizontal_y_margin
-        keep = vertical | (np.abs(robot_y - c[:, 1]) <= half_span)
-        # Vertical: (x, y) moved tie_break to the robot's right; bars: (x, z), kept only
-        # while the robot's y is within their extent (see above).
-        center = np.empty((len(obstacles), 2))
-        center[:, 0] = c[:, 0] + np.where(vertical, tie_break * math.sin(robot_yaw), 0.0)
-        center[:, 1] = np.where(vertical, c[:, 1] + tie_break * -math.cos(robot_yaw), c[:, 2])
-        velocity = np.empty((len(obstacles), 2))
-        velocity[:, 0] = vel[:, 0]
-        velocity[:, 1] = np.where(vertical, vel[:, 1], vel[:, 2])
-        radius = np.where(
-            vertical,
-            size + 0.5 * robot_width + safety_margin + tie_break,
-            size + 0.5 * robot_height + safety_margin,
-        )
-        if not keep.all():
-            center, velocity, radius = center[keep], velocity[keep], radius[keep]
-            plane = plane[keep]
-            ids = [i for i, k in zip(ids, keep.tolist(), strict=True) if k]
-            if not ids:
-                return Obstacles.empty(), []
+        radius = obstacles.vertical_radius(robot_width, safety_margin, tie_break)
+        if not math.isfinite(center.sum()):  # NaN/Inf anywhere (or an absurd overflow)
+            raise InvalidInputError("obstacle prediction overflowed")
+        return Obstacles.from_validated(center, velocity, radius, plane, _VERTICAL), ids
+    c = obstacles.center + dt_predict * obstacles.velocity
+    vel = obstacles.velocity
+    size = obstacles.size
+    vertical = plane == int(Plane.VERTICAL)
+    half_span = 0.5 * obstacles.extent + 0.5 * robot_width + horizontal_y_margin
+    keep = vertical | (np.abs(robot_y - c[:, 1]) <= half_span)
+    # Vertical: (x, y) moved tie_break to the robot's right; bars: (x, z), kept only
+    # while the robot's y is within their extent (see above).
+    center = np.empty((len(obstacles), 2))
+    center[:, 0] = c[:, 0] + np.where(vertical, tie_break * math.sin(robot_yaw), 0.0)
+    center[:, 1] = np.where(vertical, c[:, 1] + tie_break * -math.cos(robot_yaw), c[:, 2])
+    velocity = np.empty((len(obstacles), 2))
+    velocity[:, 0] = vel[:, 0]
+    velocity[:, 1] = np.where(vertical, vel[:, 1], vel[:, 2])
+    radius = np.where(
+        vertical,
+        size + 0.5 * robot_width + safety_margin + tie_break,
+        size + 0.5 * robot_height + safety_margin,
+    )
+    if not keep.all():
+        center, velocity, radius = center[keep], velocity[keep], radius[keep]
+        plane = plane[keep]
+        ids = [i for i, k in zip(ids, keep.tolist(), strict=True) if k]
+        if not ids:
+            return Obstacles.empty(), []
     if not (np.isfinite(center).all() and np.isfinite(radius).all()):
         raise InvalidInputError("obstacle prediction overflowed")
     return Obstacles.from_validated(center, velocity, radius, plane), ids
