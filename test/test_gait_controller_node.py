@@ -98,6 +98,30 @@ def test_no_tick_faster_than_the_control_period(sensors):
     assert not sensors.wait_for_command(2.0 + 0.25 * period, timeout=0.2)
 
 
+def test_a_republished_state_gets_its_command_again(sensors):
+    # The simulator republishes its t = 0 state while it waits for the first command; if
+    # the first answer was lost (publisher not yet matched), the next republication must
+    # be answered again, or simulator and controller wait for each other for good.
+    sensors.publish_state(0.0)
+    assert sensors.wait_for_command(0.0)
+    spin_until(sensors.executor, lambda: False, timeout=0.3)
+    assert len(sensors.commands) == 1  # one answer per state, not one per sensor message
+    first = sensors.commands[0]
+    sensors.publish_state(0.0)
+    assert spin_until(sensors.executor, lambda: len(sensors.commands) >= 2, 5.0)
+    spin_until(sensors.executor, lambda: False, timeout=0.3)
+    assert len(sensors.commands) == 2  # once per republication
+    again = sensors.commands[1]
+    assert again.header.stamp == first.header.stamp
+    assert list(again.q) == list(first.q) and list(again.tau) == list(first.tau)
+    # Time going on is answered as usual, once per state.
+    period = sensors.node_under_test.controller.control_period
+    sensors.publish_state(period)
+    assert sensors.wait_for_command(period)
+    spin_until(sensors.executor, lambda: False, timeout=0.3)
+    assert len(sensors.commands) == 3
+
+
 def test_mismatched_or_nan_states_are_not_acted_on(sensors):
     sensors.publish_state(3.0, joints_t=2.9)  # halves of different states
     assert not sensors.wait_for_command(3.0, timeout=0.5)

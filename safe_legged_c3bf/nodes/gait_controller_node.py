@@ -7,7 +7,8 @@ least ``control_period`` has passed since the last tick. The base state combines
 (orientation, angular velocity) with the latest /odom (position and velocity, which arrive at
 a navigation rate), its position extrapolated to the tick. Each MotorCommand is stamped with
 the state it was computed from. No /cmd_vel_safe for ``command_timeout`` seconds (sim time)
--> the command becomes zero and the robot stops and stands.
+-> the command becomes zero and the robot stops and stands. A state published again with
+the same stamp (the simulator waiting for a command) is answered again with the same command.
 """
 
 from __future__ import annotations
@@ -57,6 +58,8 @@ class GaitControllerNode(Node):
         self._joints: JointState | None = None
         self._last_tick: float | None = None
         self._last_processed_stamp = -math.inf
+        self._last_msg: MotorCommand | None = None
+        self._answered: tuple[Imu, JointState] | None = None  # the state _last_msg answers
         self._command = VelocityCommand()
         self._command_time: float | None = None
         self._dropped = 0
@@ -175,7 +178,10 @@ class GaitControllerNode(Node):
         t = ros_common.from_time_msg(self._imu.header.stamp)
         if ros_common.from_time_msg(self._joints.header.stamp) != t:
             return  # wait for the matching half of this state
-        if t <= self._last_processed_stamp:
+        if t == self._last_processed_stamp:
+            self._resend_if_republished()
+            return
+        if t < self._last_processed_stamp:
             return
         period = self.controller.control_period
         if self._last_tick is not None and t - self._last_tick < period - 1e-9:
@@ -204,6 +210,24 @@ class GaitControllerNode(Node):
             cmd.q.tolist(), cmd.dq.tolist(), cmd.kp.tolist(), cmd.kd.tolist(), cmd.tau.tolist()
         )
         self._pub.publish(msg)
+        self._last_msg = msg
+        self._answered = (self._imu, self._joints)
+
+    def _resend_if_republished(self) -> None:
+        """Answer a state the simulator published again with the same command, once.
+
+        The simulator republishes its state while it waits for a command (at t = 0 until
+        the first command; see the simulator node). The command this node sent for it may
+        have gone out before the publisher had matched the simulator's subscription, and
+        time does not advance until one arrives: without this both would wait for good.
+        """
+        if self._last_msg is None or self._answered is None:
+            return
+        imu, joints = self._answered
+        if self._imu is imu or self._joints is joints:
+            return  # the other half of the state already answered (or of its repetition)
+        self._answered = (self._imu, self._joints)
+        self._pub.publish(self._last_msg)
 
     def _publish_diagnostics(self) -> None:
         mean_ms = 1e3 * self._tick_wall / self._ticks if self._ticks else 0.0
