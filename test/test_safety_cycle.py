@@ -322,3 +322,82 @@ def test_deadlock_of_a_blocked_turn_in_place_is_resolved():
     assert math.hypot(robot.x + 1.03, robot.y - 6.35) < 0.3, (robot.x, robot.y)
     assert min_gap(log) > 0.0
     assert any("deadlock" in out.text for _, out, *_ in log)
+
+
+class _StoppingWalker(ScriptedObstacle):
+    """Walks from ``center`` towards ``stop`` at ``speed`` from ``start`` (s), then stands."""
+
+    def __init__(self, center, stop, speed, start, semi_axes):
+        super().__init__("walker", np.array([*center, 0.5]), semi_axes=semi_axes)
+        self.stop, self.speed, self.start = np.array(stop, float), speed, start
+
+    def at(self, t):
+        from safe_legged_c3bf.filtering.obstacle_input import ObstacleInput
+
+        begin = self.center[:2]
+        path = self.stop - begin
+        length = float(np.linalg.norm(path))
+        walked = min(max(t - self.start, 0.0) * self.speed, length)
+        moving = 0.0 < (t - self.start) * self.speed < length
+        c = begin + path / length * walked
+        v = path / length * self.speed if moving else np.zeros(2)
+        return ObstacleInput(self.id, 0, np.array([c[0], c[1], 0.5]), np.array([*v, 0.0]),
+                             np.asarray(self.semi_axes, float), 1.0)
+
+
+def _biped_params(**changes):
+    from safe_legged_c3bf.config import config_path, load_yaml
+
+    profile = load_yaml(config_path("robots", "biped.yaml"))["safety_filter"]
+    values = {k: tuple(v) if isinstance(v, list) else v for k, v in profile.items()}
+    return FilterParams(**{**values, **changes}).validate()
+
+
+def _biped_meets_a_walker_that_stops_on_it(escape_horizon):
+    """Random biped seed 10 at t = 8.3 s: the biped stands where an oblique walker
+    (0.158 m/s, twice the biped's reverse limit) will stop, 0.27 m from its torso."""
+    from safe_legged_c3bf.planning.reference_planner import (
+        PlannerConfig,
+        ReferencePlanner,
+        RobotPose,
+    )
+
+    planner = ReferencePlanner(PlannerConfig(mode="goal", max_vx=0.2))
+    planner.set_goal(-0.009, 3.092)
+
+    def reference(t, robot):
+        q = planner.compute(RobotPose(robot.x, robot.y, robot.yaw, robot.z), t)
+        return VelocityCommand(q.vx, q.vy, 0.0, q.yaw_rate)
+
+    walker = _StoppingWalker((0.225, 2.01), (-0.298, 1.568), 0.158, 0.5, (0.205, 0.203))
+    robot = SimpleRobot(x=-0.30, y=1.28, yaw=1.80, z=0.81, tau=0.4)
+    params = _biped_params(escape_horizon=escape_horizon)
+    log, nearest = [], math.inf
+    cycle = SafetyFilterCycle(params)
+    for k in range(int(12.0 * RATE)):
+        t = k * DT
+        out = cycle.step(t, reference(t, robot), t, robot.base_state(t), [walker.at(t)], t)
+        log.append(out.text)
+        c = walker.at(t).center
+        nearest = min(nearest, math.hypot(robot.x - c[0], robot.y - c[1]))
+        for _ in range(10):
+            robot.step(out.command, DT / 10)
+    return nearest, log
+
+
+def test_biped_escapes_a_walker_faster_than_its_reverse_limit():
+    # Contact: the walker's 0.205 m radius plus the biped's foot reach from its torso axis
+    # (feet 0.22 x 0.12 m at y = +-0.1 m: corner at 0.19 m), 0.40 m.
+    contact = 0.205 + math.hypot(0.11, 0.16)
+    nearest, texts = _biped_meets_a_walker_that_stops_on_it(0.0)  # radial: back off
+    assert nearest < contact
+    nearest, texts = _biped_meets_a_walker_that_stops_on_it(2.0)  # the biped profile's
+    assert nearest > contact
+    assert any("escaping forward" in text for text in texts)
+    assert _biped_params().escape_horizon == 2.0
+
+
+def test_escape_horizon_must_not_be_negative():
+    with pytest.raises(ValueError, match="escape_horizon"):
+        FilterParams(escape_horizon=-1.0).validate()
+    assert FilterParams().escape_horizon == 0.0  # the A1's evaluated radial emergency
