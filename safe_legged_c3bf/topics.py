@@ -48,7 +48,8 @@ CLOCK = Topic(
 )
 ODOM = Topic(
     "/odom", "nav_msgs/msg/Odometry", "simulator",
-    "base pose in odom, twist in base_link (REP-105 odom -> base_link), 100 Hz", depth=5,
+    "base pose in odom, twist in base_link (REP-105 odom -> base_link), 125 Hz (A1) / 100 Hz "
+    "(biped)", depth=5,
 )
 IMU = Topic(
     "/imu", "sensor_msgs/msg/Imu", "simulator",

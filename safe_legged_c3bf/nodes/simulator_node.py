@@ -17,7 +17,9 @@ A thin wrapper around :class:`safe_legged_c3bf.sim.world.Simulation`:
   is busy.
 * publishes in sim time ``/imu`` and ``/joint_states`` (every state period), ``/odom`` and
   ``/clock`` (every round(``state_rate`` / ``odom_rate``) and round(``state_rate`` /
-  ``clock_rate``) state periods: 125 Hz with the defaults; /clock stamped like the state
+  ``clock_rate``) state periods, so the rates are rounded: 125 Hz for the requested 100 Hz
+  at the A1's 250 Hz state rate, 100 Hz at the biped's 200 Hz; logged at start; /clock
+  stamped like the state
   published with it), ``/obstacles/detections`` (noisy, no velocities),
   ``/ground_truth/safety`` and ``/ground_truth/obstacles``, and ``/diagnostics`` (motor driver
   mode, rejected commands, lockstep timeouts; WARN while the drivers damp after a command
@@ -92,9 +94,11 @@ PARAMETERS: dict[str, tuple[Any, str]] = {
     "physics_rate": (1000.0, "physics steps per sim second (Hz)"),
     "state_rate": (250.0, "/imu and /joint_states rate (Hz, sim time): the control rate and "
                    "the lockstep period"),
-    "odom_rate": (100.0, "/odom rate (Hz, sim time, at most state_rate): navigation nodes "
+    "odom_rate": (100.0, "/odom rate (Hz, sim time, at most state_rate; rounded to a whole "
+                  "number of state periods): navigation nodes "
                   "need no more, and each subscriber pays per message"),
-    "clock_rate": (100.0, "/clock rate (Hz, sim time, at most state_rate): the resolution of "
+    "clock_rate": (100.0, "/clock rate (Hz, sim time, at most state_rate; rounded like "
+                   "odom_rate): the resolution of "
                    "the other nodes' sim-time clocks"),
     "ground_truth_rate": (50.0, "/ground_truth/* rate (Hz, sim time)"),
     "detection_rate": (0.0, "/obstacles/detections rate (Hz, sim time); 0 = scenario's rate"),
@@ -304,7 +308,9 @@ class SimulatorNode(Node):
         self.get_logger().info(
             f"scenario '{sim.scenario.name}' ({sim.scenario.robot.model}, "
             f"{len(sim.obstacles)} obstacles, {sim.scenario.duration:g} s), physics "
-            f"{rate:g} Hz, state every {self._state_every} steps, real_time_factor "
+            f"{rate:g} Hz, state every {self._state_every} steps ({rate / self._state_every:g} "
+            f"Hz; /odom {rate / self._odom_every:g} Hz, /clock {rate / self._clock_every:g} Hz),"
+            f" real_time_factor "
             f"{self._rtf:g}, lockstep {self._lockstep}"
             + (", waiting for the first command" if self._waiting else "")
         )
