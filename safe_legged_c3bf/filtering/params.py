@@ -61,11 +61,6 @@ class FilterParams:
         deadlock_turn_time: least duration (s) of a deadlock turn (ended early once the
             commanded speed exceeds twice ``deadlock_speed``).
         deadlock_memory: how long (s) the chosen side is kept after the last deadlocked cycle.
-        escape_horizon: unicycle model, body point inside an inflated vertical circle: 0 =
-            the core filter's emergency action (brake, accelerate the body point away from
-            the centre); > 0 = drive the reachable speed/yaw-rate target whose roll-out over
-            this many seconds, obstacles moving at their velocities, keeps the most clearance
-            (``filtering/escape.py``): forward when reversing is slower than the obstacle.
 
     """
 
@@ -103,7 +98,6 @@ class FilterParams:
     deadlock_yaw_rate: float = 0.5
     deadlock_turn_time: float = 1.5
     deadlock_memory: float = 3.0
-    escape_horizon: float = 0.0
 
     def validate(self) -> FilterParams:
         """Return self if valid, else raise ValueError naming the bad parameter."""
@@ -118,7 +112,6 @@ class FilterParams:
         non_negative = (
             "offset", "safety_margin", "max_reverse_speed", "horizontal_y_margin", "tie_break",
             "deadlock_speed", "deadlock_yaw_rate", "deadlock_turn_time", "deadlock_memory",
-            "escape_horizon",
         )
         for name in positive:
             value = getattr(self, name)

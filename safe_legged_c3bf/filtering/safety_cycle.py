@@ -35,11 +35,9 @@ from safe_legged_c3bf.c3bf import (
     FilterStatus,
     HolonomicHeightModel,
     InvalidInputError,
-    Plane,
     SafetyFilter,
     UnicycleHeightModel,
 )
-from safe_legged_c3bf.filtering.escape import unicycle_escape
 from safe_legged_c3bf.filtering.obstacle_input import (
     ObstacleInput,
     ObstacleSet,
@@ -298,13 +296,6 @@ class SafetyFilterCycle:
                 ref_stale, u_ref,
             )
         u = result.u_safe
-        escape = ""
-        if (
-            result.status is FilterStatus.EMERGENCY
-            and p.model == "unicycle"
-            and p.escape_horizon > 0.0
-        ):
-            u, escape = self._escape(result, circles, pos, yaw, dt, u, u_min, u_max)
         new_v = v.copy()
         for k, j in enumerate(idx):
             new_v[j] = v[j] + u[k] * dt
@@ -315,7 +306,7 @@ class SafetyFilterCycle:
         self._v = self._clip_velocity(new_v)
         status = _FROM_FILTER[result.status]
         self._held_back = status is not CycleStatus.INACTIVE
-        text = (result.message or status.name.lower()) + escape
+        text = result.message or status.name.lower()
         if deadlocked:
             text += f" (deadlock: turning {'left' if self._detour_side > 0 else 'right'})"
         if ref_stale:
@@ -323,32 +314,6 @@ class SafetyFilterCycle:
         return CycleOutput(
             self.commanded, status, text, ref, ref_stale, u_ref, u.copy(), result, ids
         )
-
-    def _escape(self, result, circles, pos, yaw, dt, u, u_min, u_max):  # noqa: ANN001, ANN202
-        """Replace the emergency's (a, alpha) by the escape of ``filtering/escape.py``.
-
-        Only when the body point is inside a vertical circle; every vertical circle is
-        avoided in the roll-out. ``a_z`` stays the core filter's (a bar's own emergency).
-        """
-        vertical = circles.plane == int(Plane.VERTICAL)
-        if not (result.active & vertical).any():
-            return u, ""
-        p, v = self.params, self._v
-        choice = unicycle_escape(
-            (float(pos[0]), float(pos[1]), yaw), (float(v[0]), float(v[3])),
-            circles.center[vertical], circles.velocity[vertical], circles.radius[vertical],
-            offset=p.offset, max_speed=p.max_speed, max_reverse_speed=p.max_reverse_speed,
-            max_yaw_rate=p.max_yaw_rate, max_accel=p.max_accel,
-            max_yaw_accel=p.max_yaw_accel, horizon=p.escape_horizon,
-        )
-        u = u.copy()
-        u[0] = min(max((choice.speed - v[0]) / dt, u_min[0]), u_max[0])
-        u[1] = min(max((choice.yaw_rate - v[3]) / dt, u_min[1]), u_max[1])
-        way = "forward" if choice.speed > 0 else "backward" if choice.speed < 0 else "standing"
-        turn = (
-            "left" if choice.yaw_rate > 0 else "right" if choice.yaw_rate < 0 else "straight"
-        )
-        return u, f"; escaping {way}, turning {turn}"
 
     def _deadlock_turn(
         self, t: float, ref_arr: np.ndarray, circles, pos: np.ndarray, yaw: float  # noqa: ANN001
