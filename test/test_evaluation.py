@@ -99,6 +99,33 @@ def test_random_movers_leave_a_passage_at_rest(robot):
     assert checked >= 1  # pairs with a mover occur (the check is not vacuous)
 
 
+@pytest.mark.parametrize("robot", rs.ROBOTS)
+def test_random_movers_walk_on_after_meeting_the_robot(robot):
+    """A mover walks at least the profile's least post_travel past the nominal robot.
+
+    Before this rule the generator shortened the walk to keep clear of the start, and
+    walkers stopped where the filtered biped waited for them (0.3-0.5 m walked; biped seeds
+    4, 6, 7, 10 and 14 of the old generator)."""
+    least = rs.profile_for(robot).post_travel[0]
+    walks = []
+    for seed in range(60):
+        walks += list(rs.walk_after_meeting(rs.random_scenario(robot, seed)).values())
+    assert len(walks) >= 10
+    assert min(walks) >= least - 0.1, sorted(walks)[:3]
+
+
+def test_walk_after_meeting_sees_a_mover_stopping_at_the_robot():
+    data = {
+        "name": "stops_at_robot", "robot": {"kind": "biped", "position": [0.0, 0.0]},
+        "goal": {"position": [3.0, 0.0]}, "duration": 30.0,
+        "obstacles": [{"id": "walker", "position": [2.0, 1.0], "semi_axes": [0.2, 0.2],
+                       "motion": {"type": "waypoints", "waypoints": [[1.2, 0.3]],
+                                  "speed": 0.15, "mode": "stop"}}],
+    }
+    sc = parse_scenario(data, name="stops_at_robot")
+    assert rs.walk_after_meeting(sc)["walker"] < 0.3
+
+
 def test_passage_check_sees_a_mover_stopping_beside_a_pillar():
     pillar = {"plane": "vertical", "position": [0.0, 0.0], "semi_axes": [0.25, 0.2],
               "motion": {"type": "static"}}
