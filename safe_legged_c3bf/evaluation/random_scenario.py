@@ -97,9 +97,9 @@ class RandomProfile:
         pre_travel: (min, max) distance (m) a mover walks before the conflict point.
         post_travel: (min, max) distance (m) it walks after it before stopping: far enough
             for its inflated circle (semi-axis + ~0.5 m) to leave the path, or the stopped
-            mover blocks the way a second time. Never shortened (only the approach is, to
-            keep clear of the start; else the mover is redrawn): see
-            :func:`walk_after_meeting`.
+            mover blocks the way a second time. Neither travel is ever shortened (a mover
+            whose segment comes near the start or the goal is drawn again): see
+            :func:`meeting_walks`.
         random_heading: draw the robot's heading (else yaw 0).
         trunk_top: top of the robot's body when standing (m); a bar is in the way below it.
         bar_underside: (min, max) height of a bar's underside (m).
@@ -166,7 +166,7 @@ PROFILES: dict[str, RandomProfile] = {
         robot="biped", cruise_speed=0.2, nominal_speed=0.195, start_delay=2.0,
         goal_distance=(3.0, 3.6), duration=45.0, obstacle_count=(1, 2),
         obstacle_radius=(0.15, 0.3), aspect=(0.6, 1.0), height=(1.0, 1.8),
-        mover_speed=(0.1, 0.2), moving_probability=0.5, kind_weights=(0.4, 0.3, 0.3),
+        mover_speed=(0.1, 0.2), moving_probability=0.7, kind_weights=(0.4, 0.3, 0.3),
         bar_probability=0.0, half_width=0.15, in_way_fraction=0.5, passage=1.45,
         start_clearance=0.9,
         goal_clearance=0.9, first_station=1.4, last_station=1.2, spacing=0.9,
@@ -266,22 +266,22 @@ def _moving_obstacle(
     t_meet = p.start_delay + station / p.nominal_speed
     pre = min(rng.uniform(*p.pre_travel), speed * t_meet)
     post = rng.uniform(*p.post_travel)
-    # Shrink the approach until the segment keeps clear of the start and the goal. The walk
-    # past the conflict point is never shortened: a mover that stopped short of it could stop
-    # where the robot waits for it to pass (seen: biped seeds 4, 10 and 14, walkers stopping
-    # 0.3-0.4 m beside the path, at twice the biped's reverse speed); redraw instead.
+    # Shrink the approach (never below ``least_pre``) until the segment keeps clear of the
+    # start and the goal, else draw again. The walk past the conflict point is never
+    # shortened: a mover that stopped short of it stopped where the robot waits for it to
+    # pass (seen: biped seeds 4, 10 and 14, walkers stopping 0.3-0.4 m beside the path, at
+    # twice the biped's reverse speed); one that starts just before it stands beside the
+    # path and walks into the robot as it arrives (biped seed 10 once its stop was fixed).
+    least_pre = min(p.pre_travel[0], pre)
     for _ in range(40):
         p0, p1 = meet - pre * direction, meet + post * direction
         if (_segment_point_distance(p0, p1, start) >= a + p.start_clearance
                 and _segment_point_distance(p0, p1, goal) >= a + p.goal_clearance):
             break
-        if pre <= 0.3:
+        if pre <= least_pre:
             return None
-        pre = max(pre * 0.9, 0.3)
+        pre = max(pre * 0.9, least_pre)
     else:
-        return None
-    if (_segment_point_distance(p0, p1, start) < a + p.start_clearance
-            or _segment_point_distance(p0, p1, goal) < a + p.goal_clearance):
         return None
     start_time = max(t_meet - pre / speed, 0.0)
     return {
@@ -526,29 +526,30 @@ def obstacle_gaps(
     return gaps
 
 
-def walk_after_meeting(
+def meeting_walks(
     scenario: Scenario, profile: RandomProfile | None = None, dt: float = 0.05
-) -> dict[str, float]:
-    """Per mover: how far (m) it walks after its closest approach to the nominal robot.
+) -> dict[str, tuple[float, float]]:
+    """Per mover: how far (m) it walks before and after its closest approach to the robot.
 
-    The nominal robot walks the straight start-goal line (:func:`nominal_robot_position`).
-    A mover that stops soon after meeting it stops where a filtered robot, which waited
-    for it to pass, stands.
+    The robot is the nominal one walking the straight start-goal line
+    (:func:`nominal_robot_position`). A mover that stops soon after meeting it stops where
+    a filtered robot, which waited for it to pass, stands; one that starts soon before
+    meeting it stands beside the path and walks into the robot as it arrives.
     """
     from safe_legged_c3bf.sim.obstacles import MotionScript
 
     p = profile or profile_for(scenario.robot.kind)
     times = np.arange(0.0, scenario.duration + 1e-9, dt)
     robot_xy = np.array([nominal_robot_position(scenario, t, p) for t in times])
-    walks: dict[str, float] = {}
+    walks: dict[str, tuple[float, float]] = {}
     for obs in scenario.obstacles:
         if obs.plane == "horizontal" or not moving(obs):
             continue
         script = MotionScript(obs.position, obs.motion)
         centres = np.array([script.state(float(t))[0][:2] for t in times])
         k = int(np.argmin(np.linalg.norm(centres - robot_xy, axis=1)))
-        steps = np.linalg.norm(np.diff(centres[k:], axis=0), axis=1)
-        walks[obs.id] = float(steps.sum())
+        steps = np.linalg.norm(np.diff(centres, axis=0), axis=1)
+        walks[obs.id] = (float(steps[:k].sum()), float(steps[k:].sum()))
     return walks
 
 
