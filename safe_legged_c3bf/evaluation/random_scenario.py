@@ -494,6 +494,24 @@ def nominal_robot_position(scenario: Scenario, t: float, profile: RandomProfile)
     return start + (goal - start) * (s / length)
 
 
+def _sample_times(scenario: Scenario, dt: float) -> np.ndarray:
+    """Sample times (s) over the whole run, ``dt`` apart."""
+    return np.arange(0.0, scenario.duration + 1e-9, dt)
+
+
+def _nominal_path(scenario: Scenario, times: np.ndarray, p: RandomProfile) -> np.ndarray:
+    """``(len(times), 2)`` positions of the nominal straight-line robot."""
+    return np.array([nominal_robot_position(scenario, t, p) for t in times])
+
+
+def _scripted_centres(obs: ObstacleConfig, times: np.ndarray) -> np.ndarray:
+    """``(len(times), 2)`` x-y centres of ``obs`` along its scripted motion."""
+    from safe_legged_c3bf.sim.obstacles import MotionScript
+
+    script = MotionScript(obs.position, obs.motion)
+    return np.array([script.state(float(t))[0][:2] for t in times])
+
+
 def obstacle_gaps(
     scenario: Scenario, profile: RandomProfile | None = None, dt: float = 0.05
 ) -> dict[str, float]:
@@ -504,11 +522,9 @@ def obstacle_gaps(
     trunk top) where the bar spans the path, +inf when it does not. Uses
     :class:`~safe_legged_c3bf.sim.obstacles.MotionScript` for the scripted motion.
     """
-    from safe_legged_c3bf.sim.obstacles import MotionScript
-
     p = profile or profile_for(scenario.robot.kind)
-    times = np.arange(0.0, scenario.duration + 1e-9, dt)
-    robot_xy = np.array([nominal_robot_position(scenario, t, p) for t in times])
+    times = _sample_times(scenario, dt)
+    robot_xy = _nominal_path(scenario, times, p)
     gaps: dict[str, float] = {}
     for obs in scenario.obstacles:
         if obs.plane == "horizontal":
@@ -519,8 +535,7 @@ def obstacle_gaps(
             underside = obs.position[2] - max(obs.semi_axes)
             gaps[obs.id] = underside - p.trunk_top if spans else math.inf
             continue
-        script = MotionScript(obs.position, obs.motion)
-        centres = np.array([script.state(float(t))[0][:2] for t in times])
+        centres = _scripted_centres(obs, times)
         dist = np.linalg.norm(centres - robot_xy, axis=1)
         gaps[obs.id] = float(dist.min() - min(obs.semi_axes) - p.half_width)
     return gaps
@@ -536,17 +551,14 @@ def meeting_walks(
     a filtered robot, which waited for it to pass, stands; one that starts soon before
     meeting it stands beside the path and walks into the robot as it arrives.
     """
-    from safe_legged_c3bf.sim.obstacles import MotionScript
-
     p = profile or profile_for(scenario.robot.kind)
-    times = np.arange(0.0, scenario.duration + 1e-9, dt)
-    robot_xy = np.array([nominal_robot_position(scenario, t, p) for t in times])
+    times = _sample_times(scenario, dt)
+    robot_xy = _nominal_path(scenario, times, p)
     walks: dict[str, tuple[float, float]] = {}
     for obs in scenario.obstacles:
         if obs.plane == "horizontal" or not moving(obs):
             continue
-        script = MotionScript(obs.position, obs.motion)
-        centres = np.array([script.state(float(t))[0][:2] for t in times])
+        centres = _scripted_centres(obs, times)
         k = int(np.argmin(np.linalg.norm(centres - robot_xy, axis=1)))
         steps = np.linalg.norm(np.diff(centres, axis=0), axis=1)
         walks[obs.id] = (float(steps[:k].sum()), float(steps[k:].sum()))
@@ -559,17 +571,14 @@ def start_goal_clearance(scenario: Scenario, dt: float = 0.05) -> tuple[float, f
     Over the whole run, with the obstacle's circumscribed circle (inf without obstacles;
     bars are skipped).
     """
-    from safe_legged_c3bf.sim.obstacles import MotionScript
-
     start = np.asarray(scenario.robot.position, dtype=float)
     goal = np.asarray(scenario.goal.position, dtype=float)
-    times = np.arange(0.0, scenario.duration + 1e-9, dt)
+    times = _sample_times(scenario, dt)
     to_start, to_goal = math.inf, math.inf
     for obs in scenario.obstacles:
         if obs.plane == "horizontal":
             continue
-        script = MotionScript(obs.position, obs.motion)
-        centres = np.array([script.state(float(t))[0][:2] for t in times])
+        centres = _scripted_centres(obs, times)
         a = max(obs.semi_axes)
         to_start = min(to_start, float(np.linalg.norm(centres - start, axis=1).min() - a))
         to_goal = min(to_goal, float(np.linalg.norm(centres - goal, axis=1).min() - a))

@@ -221,7 +221,7 @@ class GaitControllerNode(Node):
         have gone out before the publisher had matched the simulator's subscription, and
         time does not advance until one arrives: without this both would wait for good.
         """
-        if self._last_msg is None or self._answered is None:
+        if self._answered is None:  # set together with _last_msg
             return
         imu, joints = self._answered
         if self._imu is imu or self._joints is joints:
