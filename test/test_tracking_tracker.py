@@ -245,6 +245,7 @@ def test_bad_detections_are_rejected_and_counted_by_reason():
         "out_of_range": 1,
         "duplicate_id": 1,
         "stale_timestamp": 0,
+        "too_many": 0,
     }
     assert len(tracker.tracks) == 1
     # Range is measured from the robot when its position is given.
@@ -252,8 +253,8 @@ def test_bad_detections_are_rejected_and_counted_by_reason():
         [Detection((12.0, 0.0, 0.5), (0.3, 0.3))], 0.1, robot_position=(5.0, 0.0)
     )
     assert report.accepted == 1
-    # A batch older than the last one is dropped as a whole.
-    report = tracker.update([good, good], 0.05)
+    # A batch older than max_reorder before the newest one is dropped as a whole.
+    report = tracker.update([good, good], 0.1 - tracker.config.max_reorder - 1e-3)
     assert report.accepted == 0
     assert tracker.rejection_counts[RejectionReason.STALE_TIMESTAMP.value] == 2
     assert tracker.rejection_counts["out_of_range"] == 1

@@ -20,6 +20,15 @@ published, so that consumers see their obstacle input go stale instead of an emp
 
 Changing a tracker parameter at run time restarts tracking with the new configuration (the
 rejection counters are kept).
+
+Untrusted inputs: a detection message is judged by its stamp against the node's own clock:
+more than ``max_future_stamp`` ahead, or older than ``detections_timeout``, and the whole
+batch is rejected (counted as ``future_stamp`` / ``stale_stamp``) and does not count as a
+detection message for the freshness of /obstacles. So a publisher that is not on sim time
+can neither make real detections look old nor keep /obstacles alive. Messages larger than
+``max_message_bytes`` are rejected before decoding; batches of more than ``max_detections``
+keep the nearest. Two detectors on one topic are merged (see ``TrackerConfig.max_reorder``).
+/odom is judged the same way before its position and speed are used.
 """
 
 from __future__ import annotations
@@ -33,10 +42,12 @@ from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.duration import Duration
 from rclpy.node import Node
+from rclpy.serialization import deserialize_message
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
 from safe_legged_c3bf import topics
+from safe_legged_c3bf.inputs import StampGate, StampVerdict
 from safe_legged_c3bf.nodes import ros_common
 from safe_legged_c3bf.tracking import (
     Detection,
@@ -60,6 +71,8 @@ NODE_DEFAULTS: dict[str, object] = {
     "detections_timeout": 0.5,  # s (sim time) without detections -> stop publishing
     "diagnostics_period": 1.0,  # s (sim time)
     "publish_unestimated_velocity": False,  # send the raw velocity of UNKNOWN tracks
+    "max_future_stamp": 0.1,  # s: stamps further ahead of the node's clock are rejected
+    "max_message_bytes": 262144,  # larger detection messages are rejected undecoded
 }
 
 _DESCRIPTIONS = {
@@ -71,6 +84,10 @@ _DESCRIPTIONS = {
     "publish_unestimated_velocity": "publish the raw velocity of tracks whose velocity is "
     "not yet estimated (velocity_source UNKNOWN) instead of zero",
     "frame_id": "frame of detections and tracks (odom)",
+    "max_future_stamp": "s a message stamp may be ahead of the node's clock, >= 0; later "
+    "stamps are rejected (a publisher not on sim time)",
+    "max_message_bytes": "detection messages larger than this (serialized bytes) are "
+    "rejected before decoding, integer >= 1",
 }
 
 #: Display length (m) of an obstacle with infinite extent.
@@ -114,9 +131,12 @@ def check_node_parameter(name: str, value: object) -> str:
     """Reason why ``value`` is invalid for node parameter ``name`` ('' if it is fine)."""
     if name == "publish_unestimated_velocity":
         return "" if isinstance(value, bool) else f"{name} must be a bool, got {value!r}"
+    if name == "max_message_bytes":
+        ok = isinstance(value, int) and not isinstance(value, bool) and value >= 1
+        return "" if ok else f"{name} must be an integer >= 1, got {value!r}"
     if not _is_number(value) or not math.isfinite(float(value)):
         return f"{name} must be a finite number, got {value!r}"
-    if name in ("marker_rate", "marker_inflation"):
+    if name in ("marker_rate", "marker_inflation", "max_future_stamp"):
         return "" if value >= 0 else f"{name} must be >= 0, got {value!r}"
     return "" if value > 0 else f"{name} must be > 0, got {value!r}"
 
@@ -289,6 +309,7 @@ class ObstacleTrackerNode(Node):
 
         self._rejections_before_restart: dict[str, int] = {}
         self._reported_rejections = 0
+        self._reported_messages = 0
         self._robot_position: tuple[float, float, float] | None = None
         self._last_detection_time: float | None = None  # receipt time (node clock, sim)
         self._last_marker_time: float | None = None
@@ -302,7 +323,8 @@ class ObstacleTrackerNode(Node):
         self._pub = ros_common.publisher(self, topics.OBSTACLES)
         self._marker_pub = ros_common.publisher(self, topics.OBSTACLE_MARKERS)
         self._diag_pub = ros_common.publisher(self, topics.DIAGNOSTICS)
-        ros_common.subscription(self, topics.OBSTACLE_DETECTIONS, self._on_detections)
+        ros_common.subscription(self, topics.OBSTACLE_DETECTIONS, self._on_detections, raw=True)
+        self.rejected_messages: dict[str, int] = {}  # whole messages, by reason
         ros_common.subscription(self, topics.ODOM, self._on_odom)
         self._timer = self.create_timer(1.0 / float(self._node_params["rate"]), self._on_timer)
         self.create_timer(float(self._node_params["diagnostics_period"]), self._publish_diagnostics)
@@ -359,22 +381,52 @@ class ObstacleTrackerNode(Node):
     def _now(self) -> float:
         return ros_common.now_seconds(self)
 
+    def _gate(self, max_age: float) -> StampGate:
+        return StampGate(float(self._node_params["max_future_stamp"]), max_age)
+
+    def _reject_message(self, topic: str, reason: str) -> None:
+        key = f"{topic}_{reason}"
+        self.rejected_messages[key] = self.rejected_messages.get(key, 0) + 1
+        self.get_logger().warn(
+            f"rejected a {topic} message: {reason}", throttle_duration_sec=2.0
+        )
+
     def _on_odom(self, msg: Odometry) -> None:
         if not ros_common.odometry_is_finite(msg):
             self.dropped_odom += 1
             self.get_logger().warn("dropped an /odom with NaN/Inf", throttle_duration_sec=1.0)
             return
-        p = msg.pose.pose.position
+        stamp = ros_common.from_time_msg(msg.header.stamp)
+        verdict = self._gate(float(self._node_params["detections_timeout"])).verdict(
+            stamp, self._now()
+        )
+        if verdict is not StampVerdict.OK:
+            self._reject_message("odom", verdict.value)
+            return
+        p, v = msg.pose.pose.position, msg.twist.twist.linear
         self._robot_position = (p.x, p.y, p.z)
+        self.tracker.observe_robot(self._robot_position, math.hypot(v.x, v.y))
 
-    def _on_detections(self, msg: ObstacleArray) -> None:
+    def _on_detections(self, raw: bytes) -> None:
+        if len(raw) > int(self._node_params["max_message_bytes"]):
+            self._reject_message("detections", "too_large")
+            return
+        msg = deserialize_message(raw, ObstacleArray)
         now = self._now()
         stamp = ros_common.from_time_msg(msg.header.stamp)
         if stamp == 0.0:  # unstamped: take the receipt time
             stamp = now
+        verdict = self._gate(float(self._node_params["detections_timeout"])).verdict(stamp, now)
+        if verdict is not StampVerdict.OK:
+            self._reject_message("detections", verdict.value)
+            return
         report = self.tracker.update(detections_from_msg(msg), stamp, self._robot_position)
         self.detection_messages += 1
-        self._last_detection_time = now
+        stale = len(report.rejected) > 0 and report.accepted == 0 and all(
+            reason.value == "stale_timestamp" for _, reason in report.rejected
+        )
+        if not stale:  # a batch the tracker refused for its stamp keeps nothing fresh
+            self._last_detection_time = now
         if report.rejected:
             reasons = sorted({reason.value for _, reason in report.rejected})
             self.get_logger().warn(
@@ -433,12 +485,18 @@ class ObstacleTrackerNode(Node):
         total = sum(counts.values())
         new_rejections = total - self._reported_rejections
         self._reported_rejections = total
+        messages = sum(self.rejected_messages.values())
+        new_messages = messages - self._reported_messages
+        self._reported_messages = messages
         if self._last_detection_time is None:
             level, text = "warn", "waiting for detections"
         elif self.detections_stale(t):
             level, text = "warn", "detections stale: /obstacles not published"
-        elif new_rejections:
-            level, text = "warn", f"tracking; {new_rejections} detection(s) rejected recently"
+        elif new_rejections or new_messages:
+            level, text = "warn", (
+                f"tracking; {new_rejections} detection(s) and {new_messages} message(s) "
+                "rejected recently"
+            )
         else:
             level, text = "ok", "tracking"
         tracks = self.tracker.tracks
@@ -450,6 +508,8 @@ class ObstacleTrackerNode(Node):
             "rejected_total": total,
             **{f"rejected_{reason}": n for reason, n in counts.items()},
             "dropped_odom": self.dropped_odom,
+            "rejected_messages": sum(self.rejected_messages.values()),
+            **{f"rejected_{key}": n for key, n in sorted(self.rejected_messages.items())},
         }
         status = ros_common.diagnostic_status("obstacle_tracker", level, text, values)
         self._diag_pub.publish(ros_common.diagnostic_array(self, [status]))

@@ -347,8 +347,16 @@ class Track:
         largest = float(np.linalg.eigvalsh(cov)[-1])
         return largest <= self.config.velocity_std_threshold**2
 
-    def snapshot(self, t: float) -> TrackedObstacle:
-        """Return the track predicted to time ``t`` as a :class:`TrackedObstacle`."""
+    @property
+    def semi_axes(self) -> tuple[float, float]:
+        """Semi-axes of the most recent detection (m)."""
+        return self._appearance.semi_axes
+
+    def snapshot(self, t: float, growth: float = 0.0) -> TrackedObstacle:
+        """Return the track predicted to time ``t`` as a :class:`TrackedObstacle`.
+
+        ``growth`` (m, >= 0) is added to both semi-axes (a coasting track's uncertainty).
+        """
         t = float(t)
         x, P = self.kf.state_at(t)
         center = x[:3].copy()
@@ -365,7 +373,7 @@ class Track:
             stamp=t,
             center=center,
             velocity=velocity,
-            semi_axes=app.semi_axes,
+            semi_axes=(app.semi_axes[0] + growth, app.semi_axes[1] + growth),
             orientation=app.orientation,
             extent=app.extent,
             position_covariance=pos_cov,

@@ -21,6 +21,7 @@ from enum import StrEnum
 
 import numpy as np
 
+from safe_legged_c3bf.inputs import cap_nearest
 from safe_legged_c3bf.tracking.association import (
     associate,
     gate_threshold,
@@ -53,7 +54,8 @@ class RejectionReason(StrEnum):
     WRONG_FRAME = "wrong_frame"  # frame_id differs from the tracker frame
     OUT_OF_RANGE = "out_of_range"  # farther than TrackerConfig.max_range
     DUPLICATE_ID = "duplicate_id"  # same non-empty id twice in one batch
-    STALE_TIMESTAMP = "stale_timestamp"  # batch older than the last processed one
+    STALE_TIMESTAMP = "stale_timestamp"  # batch older than max_reorder before the newest one
+    TOO_MANY = "too_many"  # beyond max_detections in one batch (the farthest are dropped)
 
 
 @dataclass(frozen=True)
@@ -76,6 +78,29 @@ class TrackerConfig:
         and assignment only.  It absorbs unmodelled maneuvers: with the low default process
         noise the Kalman innovation covariance is a few centimetres wide, and a walking
         obstacle that turns sharply would otherwise fall out of its own gate.
+    max_detections:
+        Detections kept from one batch, nearest to the robot first; the rest are rejected
+        as ``too_many`` (bounded work on a flood).
+    max_reorder:
+        A batch may be up to this much older than the newest one processed (s) and is
+        still used: two detectors on one topic, or one delayed frame, are merged instead of
+        rejected. Older batches are rejected as ``stale_timestamp``.
+    keep_near_distance:
+        A confirmed track whose ellipse comes within this distance of the robot (m) is kept
+        past ``track.max_coast_time`` while the robot moves: an obstacle close by that stops
+        being detected (drop-out, occlusion, a poisoned or lost frame) is not forgotten.
+    keep_near_max_coast_time:
+        Longest a near track is kept without an update while the robot moves (s).
+    robot_stopped_speed:
+        The robot counts as stopped below this planar speed (m/s); near tracks are then
+        deleted by the ordinary ``max_coast_time`` rule.
+    coast_growth:
+        Growth of a coasting track's semi-axes per second without an update (m/s), after
+        ``coast_growth_after`` s: the published ellipse covers where the unseen obstacle
+        may have gone.
+    coast_growth_after:
+        Time without an update before the semi-axes start to grow (s): a few detection
+        periods, so ordinary gaps between frames do not grow obstacles.
     track:
         Per-track filter and lifecycle parameters.
 
@@ -86,6 +111,13 @@ class TrackerConfig:
     max_semi_axis: float = 5.0
     gate_probability: float = 0.9999
     gate_floor: float = 0.1
+    max_detections: int = 64
+    max_reorder: float = 0.5
+    keep_near_distance: float = 1.5
+    keep_near_max_coast_time: float = 5.0
+    robot_stopped_speed: float = 0.05
+    coast_growth: float = 0.3
+    coast_growth_after: float = 0.3
     track: TrackConfig = field(default_factory=TrackConfig)
 
     def __post_init__(self) -> None:
@@ -98,6 +130,14 @@ class TrackerConfig:
             raise ValueError(f"gate_probability must be in (0, 1), got {self.gate_probability!r}")
         if not (math.isfinite(self.gate_floor) and self.gate_floor >= 0.0):
             raise ValueError(f"gate_floor must be finite and >= 0, got {self.gate_floor!r}")
+        value = self.max_detections
+        if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
+            raise ValueError(f"max_detections must be an integer >= 1, got {value!r}")
+        for name in ("max_reorder", "keep_near_distance", "keep_near_max_coast_time",
+                     "robot_stopped_speed", "coast_growth", "coast_growth_after"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be finite and >= 0, got {value!r}")
         if not isinstance(self.track, TrackConfig):
             raise ValueError("track must be a TrackConfig")
 
@@ -197,6 +237,8 @@ class MultiObstacleTracker:
         self._next_track_id = 1
         self._last_time: float | None = None
         self._rejections: Counter[str] = Counter()
+        self._robot_position: np.ndarray | None = None  # odom (m)
+        self._robot_moving = False
 
     # ------------------------------------------------------------------ state
     @property
@@ -218,6 +260,27 @@ class MultiObstacleTracker:
         """Drop all tracks and the time reference (rejection counters are kept)."""
         self._tracks.clear()
         self._last_time = None
+
+    def observe_robot(self, position: Sequence[float], speed: float) -> None:
+        """The robot's position (odom, m) and planar speed (m/s), for keeping near tracks."""
+        pos = np.asarray(position, dtype=float).reshape(-1)[:3]
+        if pos.size >= 2 and np.all(np.isfinite(pos)) and math.isfinite(speed):
+            self._robot_position = pos
+            self._robot_moving = speed > self.config.robot_stopped_speed
+
+    def _kept_near(self, trk: Track, t: float) -> bool:
+        """A confirmed track near the moving robot is kept past its coast time (see config)."""
+        cfg = self.config
+        if not (trk.confirmed and self._robot_moving and self._robot_position is not None):
+            return False
+        if t - trk.last_update_time > cfg.keep_near_max_coast_time:
+            return False
+        center = trk.kf.state_at(t)[0][:2]
+        gap = float(np.linalg.norm(center - self._robot_position[:2])) - max(trk.semi_axes)
+        return gap < cfg.keep_near_distance
+
+    def _is_stale(self, trk: Track, t: float) -> bool:
+        return trk.is_stale(t) and not self._kept_near(trk, t)
 
     # ------------------------------------------------------------------ update
     def update(
@@ -244,15 +307,21 @@ class MultiObstacleTracker:
         detections = list(detections)
         t = float(t)
         rejected: list[tuple[int, RejectionReason]] = []
-        if not math.isfinite(t) or (self._last_time is not None and t < self._last_time):
+        if not math.isfinite(t) or (
+            self._last_time is not None and t < self._last_time - self.config.max_reorder
+        ):
             rejected = [(k, RejectionReason.STALE_TIMESTAMP) for k in range(len(detections))]
             self._count(rejected)
             return UpdateReport(0, rejected, 0, [], [])
+        index = list(range(len(detections)))  # original index of each detection kept
+        if len(detections) > self.config.max_detections:
+            index, rejected = self._cap(detections, robot_position)
 
         valid: list[Detection] = []
         seen_ids: set[str] = set()
         cfg = self.config
-        for k, det in enumerate(detections):
+        for k in index:
+            det = detections[k]
             reason = validate_detection(
                 det,
                 frame_id=cfg.frame_id,
@@ -307,14 +376,29 @@ class MultiObstacleTracker:
         deleted: list[int] = []
         alive: list[Track] = []
         for trk in self._tracks:
-            if trk.is_stale(t):
+            if self._is_stale(trk, t):
                 trk.delete()
                 deleted.append(trk.track_id)
             else:
                 alive.append(trk)
         self._tracks = alive
-        self._last_time = t
+        self._last_time = t if self._last_time is None else max(self._last_time, t)
         return UpdateReport(len(valid), rejected, len(result.matches), created, deleted)
+
+    def _cap(
+        self, detections: list[Detection], robot_position: Sequence[float] | np.ndarray | None
+    ) -> tuple[list[int], list[tuple[int, RejectionReason]]]:
+        """Indices of the ``max_detections`` nearest the robot; the rest as ``too_many``."""
+        centers = np.full((len(detections), 3), np.inf)
+        for k, det in enumerate(detections):
+            try:
+                centers[k] = np.asarray(det.center, dtype=float).reshape(3)
+            except (TypeError, ValueError):
+                pass  # malformed: counted as farthest, rejected below if kept
+        keep = cap_nearest(centers, _reference_point(robot_position), self.config.max_detections)
+        kept = set(keep.tolist())
+        dropped = [(k, RejectionReason.TOO_MANY) for k in range(len(detections)) if k not in kept]
+        return sorted(kept), dropped
 
     def _count(self, rejected: list[tuple[int, RejectionReason]]) -> None:
         for _, reason in rejected:
@@ -332,8 +416,10 @@ class MultiObstacleTracker:
         if not math.isfinite(t):
             raise ValueError("t must be finite")
         out = []
+        cfg = self.config
         for trk in self._tracks:
-            if trk.is_stale(t) or (not include_tentative and not trk.confirmed):
+            if self._is_stale(trk, t) or (not include_tentative and not trk.confirmed):
                 continue
-            out.append(trk.snapshot(t))
+            unseen = t - trk.last_update_time - cfg.coast_growth_after
+            out.append(trk.snapshot(t, cfg.coast_growth * max(unseen, 0.0)))
         return out
