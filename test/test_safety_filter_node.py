@@ -218,9 +218,16 @@ def test_nan_messages_are_dropped_and_counted(driver):
     arr = ObstacleArray(obstacles=[bad_obs])
     arr.header.stamp = ros_common.to_time_msg(t)
     driver.obs_pub.publish(arr)
-    assert spin_until(driver.executor, lambda: sum(driver.filter.dropped.values()) >= 3, 10.0)
-    state = driver.step(t + DT, robot, [], twist(0.3))
+    # /cmd_vel and /odom are checked on arrival; /obstacles when the next cycle decodes the
+    # latest one (so the next step sends no newer obstacle list).
+    assert spin_until(
+        driver.executor,
+        lambda: sum(driver.filter.dropped.values()) >= 2 and driver.filter._obstacles_raw,
+        10.0,
+    )
+    state = driver.step(t + DT, robot, None, twist(0.3))
     assert state.dropped_messages >= before + 3
+    assert driver.filter.dropped == {"cmd_vel": 1, "odom": 1, "obstacles": 1}
     assert all(math.isfinite(c.linear.x) for c in driver.commands)
 
 

@@ -61,6 +61,16 @@ class FilterParams:
         deadlock_turn_time: least duration (s) of a deadlock turn (ended early once the
             commanded speed exceeds twice ``deadlock_speed``).
         deadlock_memory: how long (s) the chosen side is kept after the last deadlocked cycle.
+        max_future_stamp: how far (s) a stamp of /odom or /obstacles may be ahead of the
+            node's clock (the clock's jitter between processes); later stamps are rejected
+            and counted, never believed (a wall-clock stamp in a sim-time graph).
+        max_obstacles: obstacles kept from one /obstacles message, nearest to the robot
+            first; the rest are rejected and counted (bounded work on a flood).
+        max_message_bytes: an /obstacles message larger than this (serialized bytes) is
+            rejected before it is decoded (bounded work on a gigantic message).
+        vanished_memory: how long (s) the cycle remembers an obstacle it saw; one that
+            disappears from /obstacles within the robot's stopping distance (plus
+            safety_margin) makes the cycle brake to a stop (EMERGENCY_BRAKE).
 
     """
 
@@ -98,6 +108,10 @@ class FilterParams:
     deadlock_yaw_rate: float = 0.5
     deadlock_turn_time: float = 1.5
     deadlock_memory: float = 3.0
+    max_future_stamp: float = 0.1
+    max_obstacles: int = 32
+    max_message_bytes: int = 262144
+    vanished_memory: float = 1.0
 
     def validate(self) -> FilterParams:
         """Return self if valid, else raise ValueError naming the bad parameter."""
@@ -108,10 +122,12 @@ class FilterParams:
             "max_yaw_accel", "max_vertical_accel", "brake_decel", "max_speed",
             "max_lateral_speed", "max_yaw_rate", "max_vertical_speed", "height_gain",
             "windup_band", "odom_timeout", "obstacles_timeout", "reference_timeout",
+            "vanished_memory",
         )
         non_negative = (
             "offset", "safety_margin", "max_reverse_speed", "horizontal_y_margin", "tie_break",
             "deadlock_speed", "deadlock_yaw_rate", "deadlock_turn_time", "deadlock_memory",
+            "max_future_stamp",
         )
         for name in positive:
             value = getattr(self, name)
@@ -121,6 +137,10 @@ class FilterParams:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name}: must be a finite number >= 0, got {value!r}")
+        for name in ("max_obstacles", "max_message_bytes"):
+            value = getattr(self, name)
+            if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
+                raise ValueError(f"{name}: must be an integer >= 1, got {value!r}")
         if not (0 < self.min_height < self.max_height):
             raise ValueError(
                 f"min_height/max_height: need 0 < min_height < max_height, got "

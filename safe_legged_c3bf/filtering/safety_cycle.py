@@ -3,9 +3,12 @@
 Per cycle (sim time ``t``):
 
 1. Fail-safe checks: odometry older than ``odom_timeout`` or obstacles older than
-   ``obstacles_timeout`` (or never received) -> brake every velocity to zero at
-   ``brake_decel`` (STALE_INPUT). A reference older than ``reference_timeout`` -> the
-   reference becomes zero (flagged, still filtered).
+   ``obstacles_timeout`` (or never received), or either stamped more than
+   ``max_future_stamp`` ahead of ``t`` -> brake every velocity to zero at ``brake_decel``
+   (STALE_INPUT). A reference older than ``reference_timeout`` (or from the future) -> the
+   reference becomes zero (flagged, still filtered). An obstacle seen in the last
+   ``vanished_memory`` s that is gone from the list while inside the robot's stopping
+   distance -> brake to a stop (EMERGENCY_BRAKE; see ``filtering.vanished``).
 2. Reference to acceleration: u_ref = k (v_ref - v), saturated (the paper's P tracking), where
    v is the commanded velocity held by this cycle's integrator (the model's velocity state).
 3. The C3BF QP (``safe_legged_c3bf.c3bf.SafetyFilter``) over (a, alpha, a_z) for the unicycle
@@ -44,6 +47,7 @@ from safe_legged_c3bf.filtering.obstacle_input import (
     to_c3bf_obstacles,
 )
 from safe_legged_c3bf.filtering.params import FilterParams
+from safe_legged_c3bf.filtering.vanished import Vanished, VanishWatch
 from safe_legged_c3bf.gait_controller import VelocityCommand
 
 
@@ -103,6 +107,11 @@ def _toward_zero(x: float, step: float) -> float:
     return 0.0 if abs(x) <= step else x - math.copysign(step, x)
 
 
+def _fresh(age: float, timeout: float, max_future: float) -> bool:
+    """True when a stamp ``age`` s old (negative: from the future) is usable."""
+    return -max_future <= age <= timeout
+
+
 class SafetyFilterCycle:
     """The safety filter's per-cycle logic, holding the commanded-velocity integrator."""
 
@@ -120,6 +129,9 @@ class SafetyFilterCycle:
         self._detour_time = -math.inf
         self._detour_until = -math.inf
         self._held_back = False
+        # Obstacles seen recently, and the vanished one being braked for (if any).
+        self._vanish_watch = VanishWatch()
+        self._vanish_brake: Vanished | None = None
 
     def _build(self) -> None:
         p = self.params
@@ -209,8 +221,8 @@ class SafetyFilterCycle:
         dt = period if self._last_t is None else min(max(t - self._last_t, 0.25 * period),
                                                      2.0 * period)
         self._last_t = t
-        ref_stale = (
-            reference is None or reference_time is None or t - reference_time > p.reference_timeout
+        ref_stale = reference is None or reference_time is None or not _fresh(
+            t - reference_time, p.reference_timeout, p.max_future_stamp
         )
         ref = VelocityCommand() if ref_stale else reference
         ref_arr = ref.as_array()  # vx, vy, vz, wz
@@ -223,9 +235,11 @@ class SafetyFilterCycle:
                 text += " (reference stale: zero)"
             return CycleOutput(ref, CycleStatus.PASS_THROUGH, text, ref, ref_stale)
 
-        odom_stale = base is None or t - base.stamp > p.odom_timeout
-        obstacles_stale = (
-            obstacles is None or obstacles_time is None or t - obstacles_time > p.obstacles_timeout
+        odom_stale = base is None or not _fresh(
+            t - base.stamp, p.odom_timeout, p.max_future_stamp
+        )
+        obstacles_stale = obstacles is None or obstacles_time is None or not _fresh(
+            t - obstacles_time, p.obstacles_timeout, p.max_future_stamp
         )
         if odom_stale or obstacles_stale:
             self._brake(dt)
@@ -255,6 +269,18 @@ class SafetyFilterCycle:
             return CycleOutput(
                 self.commanded, CycleStatus.INVALID_INPUT, f"rejected obstacles: {err}", ref,
                 ref_stale,
+            )
+        vanished = self._check_vanished(t, obstacles, pos, yaw)
+        self._vanish_watch.observe(t, ids, circles)
+        if vanished is not None:
+            self._brake(dt)
+            if not self._v.any():  # stopped: the vanished obstacle has been answered
+                self._vanish_brake = None
+            return CycleOutput(
+                self.commanded, CycleStatus.EMERGENCY_BRAKE,
+                f"obstacle '{vanished.obstacle_id}' vanished {vanished.clearance:.2f} m away, "
+                f"inside the stopping distance {vanished.stopping_distance:.2f} m: braking "
+                "to a stop", ref, ref_stale,
             )
         deadlocked = False
         if p.model == "unicycle":
@@ -314,6 +340,24 @@ class SafetyFilterCycle:
         return CycleOutput(
             self.commanded, status, text, ref, ref_stale, u_ref, u.copy(), result, ids
         )
+
+    def _check_vanished(self, t: float, obstacles, pos: np.ndarray, yaw: float):  # noqa: ANN001
+        """The vanished obstacle to brake for (kept until the robot has stopped), or None."""
+        if self._vanish_brake is not None:
+            return self._vanish_brake
+        p = self.params
+        present = obstacles.ids if isinstance(obstacles, ObstacleSet) else [
+            o.id for o in obstacles
+        ]
+        offset = p.offset if p.model == "unicycle" else 0.0
+        body_xy = (pos[0] + offset * math.cos(yaw), pos[1] + offset * math.sin(yaw))
+        speed = math.hypot(self._v[0], self._v[1])
+        stopping = speed * speed / (2.0 * p.brake_decel) + speed / p.rate
+        self._vanish_brake = self._vanish_watch.check(
+            t, present, body_xy, (body_xy[0], float(pos[2])), stopping, p.safety_margin,
+            p.vanished_memory,
+        )
+        return self._vanish_brake
 
     def _deadlock_turn(
         self, t: float, ref_arr: np.ndarray, circles, pos: np.ndarray, yaw: float  # noqa: ANN001

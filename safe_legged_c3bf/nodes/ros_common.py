@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import sys
+import time
 from collections.abc import Callable, Iterable
 
 import rclpy
@@ -46,9 +47,43 @@ def publisher(node: Node, topic: Topic):  # noqa: ANN201 - rclpy Publisher
     return node.create_publisher(topic.msg_class(), topic.name, qos(topic))
 
 
-def subscription(node: Node, topic: Topic, callback: Callable):  # noqa: ANN201
-    """Subscription to a contract topic: its name, message type and QoS from ``topics.py``."""
-    return node.create_subscription(topic.msg_class(), topic.name, callback, qos(topic))
+def subscription(node: Node, topic: Topic, callback: Callable, raw: bool = False):  # noqa: ANN201
+    """Subscription to a contract topic: its name, message type and QoS from ``topics.py``.
+
+    ``raw``: the callback receives the serialized bytes (to bound work before decoding).
+    """
+    return node.create_subscription(
+        topic.msg_class(), topic.name, callback, qos(topic), raw=raw
+    )
+
+
+class SinglePublisher:
+    """Whether a topic has at most one publisher, asked of the ROS graph every ``period`` s.
+
+    rclpy gives a callback no publisher identity, so two publishers on one topic cannot be
+    told apart message by message. Where believing the wrong one is unsafe (odometry and
+    obstacles for the filter, the safe command for the gait controller) the receiver rejects
+    the topic's messages while it has more than one publisher, and fails safe.
+    """
+
+    def __init__(self, node: Node, topic: Topic, period: float = 0.2) -> None:
+        """Watch ``topic`` for ``node``; ``period``: wall seconds between graph queries."""
+        self._node, self._name, self._period = node, topic.name, period
+        self._asked = -math.inf
+        self._count = 0
+
+    @property
+    def count(self) -> int:
+        """Publishers on the topic (at most ``period`` s old)."""
+        now = time.monotonic()
+        if now - self._asked >= self._period:
+            self._count = self._node.count_publishers(self._name)
+            self._asked = now
+        return self._count
+
+    def ok(self) -> bool:
+        """True while the topic has at most one publisher."""
+        return self.count <= 1
 
 
 def use_sim_time(node: Node, enabled: bool = True) -> None:

@@ -5,12 +5,21 @@ once a second and on every status change. A cycle runs as soon as odometry arriv
 ``rate`` times per second), so the command reacts to the newest state; a sim-time timer keeps
 the cycles (and the braking) going when odometry stops. All logic is in
 :class:`~safe_legged_c3bf.filtering.safety_cycle.SafetyFilterCycle`; this is the ROS wrapper.
+
+Untrusted inputs: every cycle runs at the node's own clock, never at a message's stamp.
+/odom and /obstacles stamped more than ``max_future_stamp`` ahead of that clock, or older
+than their timeout, are rejected and counted (``/diagnostics``: ``rejected_<topic>_<why>``);
+so are NaN/Inf messages, /obstacles larger than ``max_message_bytes`` (before decoding) and
+both topics while they have more than one publisher (which one to believe cannot be told).
+An /obstacles message is decoded once per cycle at most (a flood costs one decode per
+cycle), keeping its ``max_obstacles`` obstacles nearest the robot.
 """
 
 from __future__ import annotations
 
 import math
 import time
+from collections import Counter
 from dataclasses import asdict, fields
 
 import numpy as np
@@ -18,12 +27,14 @@ from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.node import Node
+from rclpy.serialization import deserialize_message
 
 from safe_legged_c3bf import topics
 from safe_legged_c3bf.c3bf import InvalidInputError
 from safe_legged_c3bf.filtering.obstacle_input import ObstacleSet
 from safe_legged_c3bf.filtering.params import FilterParams
 from safe_legged_c3bf.filtering.safety_cycle import CycleOutput, CycleStatus, SafetyFilterCycle
+from safe_legged_c3bf.inputs import StampGate, StampVerdict, cap_nearest
 from safe_legged_c3bf.nodes import ros_common
 from safe_legged_c3bf_msgs.msg import ObstacleArray, SafetyFilterState
 
@@ -33,9 +44,17 @@ _DESCRIPTIONS = {
 }
 
 
-def obstacles_from_msg(msg: ObstacleArray) -> ObstacleSet | None:
-    """The message's obstacles, validated once; None if any has a non-finite/invalid value."""
+def obstacles_from_msg(
+    msg: ObstacleArray, robot_xy: tuple[float, float] | None = None, limit: int | None = None
+) -> ObstacleSet | None:
+    """The message's obstacles, validated once; None if any has a non-finite/invalid value.
+
+    With ``limit``, only the ``limit`` obstacles nearest ``robot_xy`` (odom, m) are kept.
+    """
     obs = msg.obstacles
+    if limit is not None and len(obs) > limit:
+        centers = np.array([(o.center.x, o.center.y) for o in obs], dtype=float)
+        obs = [obs[i] for i in cap_nearest(centers, robot_xy, limit).tolist()]
     try:
         return ObstacleSet.from_arrays(
             [o.id for o in obs],
@@ -75,7 +94,10 @@ class SafetyFilterNode(Node):
         self._obstacles_time: float | None = None
         self._last_cycle: float | None = None
         self._last_status: CycleStatus | None = None
+        self._obstacles_raw: bytes | None = None  # latest /obstacles, decoded at a cycle
         self.dropped = {"cmd_vel": 0, "odom": 0, "obstacles": 0}
+        self.rejected: Counter[str] = Counter()  # "<topic>_<reason>" -> count
+        self._gates = self._make_gates(params)
         self.latencies: list[float] = []  # wall s from odometry receipt to publish
         self.cycles = 0
 
@@ -85,7 +107,11 @@ class SafetyFilterNode(Node):
         self._diag_pub = ros_common.publisher(self, topics.DIAGNOSTICS)
         ros_common.subscription(self, topics.CMD_VEL, self._on_reference)
         ros_common.subscription(self, topics.ODOM, self._on_odom)
-        ros_common.subscription(self, topics.OBSTACLES, self._on_obstacles)
+        ros_common.subscription(self, topics.OBSTACLES, self._on_obstacles, raw=True)
+        self._single = {
+            "odom": ros_common.SinglePublisher(self, topics.ODOM),
+            "obstacles": ros_common.SinglePublisher(self, topics.OBSTACLES),
+        }
         self._timer = self.create_timer(1.0 / params.rate, self._on_timer)
         self.create_timer(1.0, self._publish_diagnostics)
         self._last_output: CycleOutput | None = None
@@ -104,6 +130,7 @@ class SafetyFilterNode(Node):
             return SetParametersResult(successful=False, reason=str(err))
         rate_changed = new.rate != self.cycle.params.rate
         self.cycle.set_params(new)
+        self._gates = self._make_gates(new)
         if rate_changed:
             self._timer.cancel()
             self.destroy_timer(self._timer)
@@ -112,47 +139,95 @@ class SafetyFilterNode(Node):
         return SetParametersResult(successful=True)
 
     # -- inputs -----------------------------------------------------------------------------
+    @staticmethod
+    def _make_gates(params: FilterParams) -> dict[str, StampGate]:
+        return {
+            "odom": StampGate(params.max_future_stamp, params.odom_timeout),
+            "obstacles": StampGate(params.max_future_stamp, params.obstacles_timeout),
+        }
+
     def _now(self) -> float:
         return ros_common.now_seconds(self)
 
+    def _reject(self, topic: str, reason: str) -> None:
+        """Count a rejected message and say so (throttled)."""
+        self.rejected[f"{topic}_{reason}"] += 1
+        if reason in ("non_finite", "invalid"):
+            self.dropped[topic] += 1
+        self.get_logger().warn(
+            f"rejected an /{topic} message: {reason}", throttle_duration_sec=1.0
+        )
+
+    def _accept(self, topic: str, stamp: float, now: float) -> bool:
+        """Stamp and publisher checks of an /odom or /obstacles message (counted if not)."""
+        if not self._single[topic].ok():
+            self._reject(topic, "second_publisher")
+            return False
+        verdict = self._gates[topic].check(stamp, now)
+        if verdict is not StampVerdict.OK:
+            self._reject(topic, verdict.value)
+            return False
+        return True
+
     def _on_reference(self, msg: Twist) -> None:
         if not ros_common.twist_is_finite(msg):
-            self.dropped["cmd_vel"] += 1
-            self.get_logger().warn("dropped a /cmd_vel with NaN/Inf", throttle_duration_sec=1.0)
+            self._reject("cmd_vel", "non_finite")
             return
         self._reference = ros_common.twist_to_command(msg)
         self._reference_time = self._now()
 
-    def _on_obstacles(self, msg: ObstacleArray) -> None:
-        obstacles = obstacles_from_msg(msg)
+    def _on_obstacles(self, raw: bytes) -> None:
+        """Keep the latest message's bytes; a cycle decodes it (bounded work on floods)."""
+        if len(raw) > self.cycle.params.max_message_bytes:
+            self._reject("obstacles", "too_large")
+            return
+        self._obstacles_raw = raw
+
+    def _decode_obstacles(self, now: float) -> None:
+        """Decode, check and keep the latest /obstacles message, if a new one came."""
+        raw, self._obstacles_raw = self._obstacles_raw, None
+        if raw is None:
+            return
+        msg = deserialize_message(raw, ObstacleArray)
         stamp = ros_common.from_time_msg(msg.header.stamp)
-        if obstacles is None or not math.isfinite(stamp):
-            self.dropped["obstacles"] += 1
-            self.get_logger().warn("dropped an /obstacles with NaN/Inf", throttle_duration_sec=1.0)
+        if not self._accept("obstacles", stamp, now):
+            return
+        limit = self.cycle.params.max_obstacles
+        if len(msg.obstacles) > limit:
+            self.rejected["obstacles_over_max_obstacles"] += len(msg.obstacles) - limit
+        base = self._base
+        robot_xy = None if base is None else (float(base.position[0]), float(base.position[1]))
+        obstacles = obstacles_from_msg(msg, robot_xy, limit)
+        if obstacles is None:
+            self._reject("obstacles", "invalid")
             return
         self._obstacles, self._obstacles_time = obstacles, stamp
 
     def _on_odom(self, msg: Odometry) -> None:
         received = time.perf_counter()
         if not ros_common.odometry_is_finite(msg):
-            self.dropped["odom"] += 1
-            self.get_logger().warn("dropped an /odom with NaN/Inf", throttle_duration_sec=1.0)
+            self._reject("odom", "non_finite")
+            return
+        t = self._now()
+        if not self._accept("odom", ros_common.from_time_msg(msg.header.stamp), t):
             return
         self._base = ros_common.odometry_to_base_state(msg)
-        t = self._base.stamp
         period = 1.0 / self.cycle.params.rate
-        if self._last_cycle is None or t - self._last_cycle >= period - 1e-6:
+        last = self._last_cycle
+        if last is None or t - last >= period - 1e-6 or t < last:
             self._run_cycle(t, received)
 
     def _on_timer(self) -> None:
         t = self._now()
         period = 1.0 / self.cycle.params.rate
-        if self._last_cycle is None or t - self._last_cycle >= 1.5 * period:
+        last = self._last_cycle
+        if last is None or t - last >= 1.5 * period or t < last:  # t < last: clock went back
             self._run_cycle(t)
 
     # -- cycle ------------------------------------------------------------------------------
     def _run_cycle(self, t: float, received: float | None = None) -> None:
         """Run one cycle; ``received`` is the wall time the triggering odometry arrived."""
+        self._decode_obstacles(t)
         out = self.cycle.step(
             t, self._reference, self._reference_time, self._base, self._obstacles,
             self._obstacles_time,
@@ -199,7 +274,7 @@ class SafetyFilterNode(Node):
         else:
             msg.min_h = math.inf
             msg.solver = "none"
-        msg.dropped_messages = sum(self.dropped.values())
+        msg.dropped_messages = sum(self.rejected.values())
         return msg
 
     def _publish_diagnostics(self) -> None:
@@ -219,6 +294,8 @@ class SafetyFilterNode(Node):
             "status": status.name,
             "cycles": self.cycles,
             **{f"dropped_{k}": v for k, v in self.dropped.items()},
+            "rejected_total": sum(self.rejected.values()),
+            **{f"rejected_{k}": v for k, v in sorted(self.rejected.items())},
             "latency_median_ms": f"{1e3 * float(np.median(lat)):.3f}",
         }
         text = out.text if out is not None else "waiting for inputs"
