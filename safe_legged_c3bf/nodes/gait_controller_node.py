@@ -9,12 +9,19 @@ a navigation rate), its position extrapolated to the tick. Each MotorCommand is 
 the state it was computed from. No /cmd_vel_safe for ``command_timeout`` seconds (sim time)
 -> the command becomes zero and the robot stops and stands. A state published again with
 the same stamp (the simulator waiting for a command) is answered again with the same command.
+
+Untrusted inputs: /imu, /joint_states and /odom stamped more than ``max_future_stamp`` ahead
+of the node's clock, or older than ``command_timeout`` behind it, are rejected and counted
+(a publisher that is not on sim time cannot stall the controller by moving its time ahead).
+While /cmd_vel_safe has more than one publisher the command is ambiguous (which one is the
+safety filter cannot be told): every command is rejected and the robot stops and stands.
 """
 
 from __future__ import annotations
 
 import math
 import time
+from collections import Counter
 
 import numpy as np
 from geometry_msgs.msg import Twist
@@ -27,6 +34,7 @@ from safe_legged_c3bf import topics
 from safe_legged_c3bf.base_state import BaseState
 from safe_legged_c3bf.controllers import make_gait_controller
 from safe_legged_c3bf.gait_controller import VelocityCommand
+from safe_legged_c3bf.inputs import StampGate, StampVerdict
 from safe_legged_c3bf.nodes import ros_common
 from safe_legged_c3bf_msgs.msg import MotorCommand
 
@@ -42,9 +50,12 @@ class GaitControllerNode(Node):
         self.declare_parameter("command_timeout", 0.5)
         self.declare_parameter("controller_config", "")
         self.declare_parameter("diagnostics_period", 1.0)
+        self.declare_parameter("max_future_stamp", 0.1)
         self._timeout = float(self.get_parameter("command_timeout").value)
         if not self._timeout > 0:
             raise ValueError("command_timeout must be > 0 s")
+        self._gate = StampGate(float(self.get_parameter("max_future_stamp").value), self._timeout)
+        self.rejected: Counter[str] = Counter()  # "<topic>_<reason>" -> count
         robot = str(self.get_parameter("robot").value)
         self.controller = make_gait_controller(
             robot, str(self.get_parameter("controller_config").value) or None
@@ -73,6 +84,7 @@ class GaitControllerNode(Node):
         ros_common.subscription(self, topics.JOINT_STATES, self._on_joints)
         ros_common.subscription(self, topics.IMU, self._on_imu)
         ros_common.subscription(self, topics.CMD_VEL_SAFE, self._on_cmd)
+        self._single_command_source = ros_common.SinglePublisher(self, topics.CMD_VEL_SAFE)
         self.create_timer(
             float(self.get_parameter("diagnostics_period").value), self._publish_diagnostics
         )
@@ -89,6 +101,7 @@ class GaitControllerNode(Node):
                         successful=False, reason="command_timeout must be > 0 s"
                     )
                 self._timeout = float(p.value)
+                self._gate = StampGate(self._gate.max_future, self._timeout)
             elif p.name in ("robot", "controller_config"):
                 return SetParametersResult(
                     successful=False, reason=f"{p.name} is fixed at start-up"
@@ -99,38 +112,56 @@ class GaitControllerNode(Node):
     def _state_time(self) -> float | None:
         return None if self._imu is None else ros_common.from_time_msg(self._imu.header.stamp)
 
+    def _reject(self, topic: str, reason: str) -> None:
+        self.rejected[f"{topic}_{reason}"] += 1
+        self._dropped += 1
+        self.get_logger().warn(f"rejected a {topic} message: {reason}", throttle_duration_sec=1.0)
+
+    def _stamp_ok(self, topic: str, stamp) -> bool:  # noqa: ANN001 - builtin_interfaces/Time
+        verdict = self._gate.verdict(ros_common.from_time_msg(stamp), ros_common.now_seconds(self))
+        if verdict is StampVerdict.OK:
+            return True
+        self._reject(topic, verdict.value)
+        return False
+
     def _on_cmd(self, msg: Twist) -> None:
         if not ros_common.twist_is_finite(msg):
-            self._dropped += 1
-            self.get_logger().warn("dropped a non-finite /cmd_vel_safe", throttle_duration_sec=1.0)
+            self._reject("cmd_vel_safe", "non_finite")
+            return
+        if not self._single_command_source.ok():
+            self._reject("cmd_vel_safe", "second_publisher")
+            self._command, self._command_time = VelocityCommand(), self._state_time()
             return
         self._command = ros_common.twist_to_command(msg)
         self._command_time = self._state_time()
 
     def _on_odom(self, msg: Odometry) -> None:
         if not ros_common.odometry_is_finite(msg):
-            self._dropped += 1
+            self._reject("odom", "non_finite")
             return
-        self._odom = ros_common.odometry_to_base_state(msg)
+        if self._stamp_ok("odom", msg.header.stamp):
+            self._odom = ros_common.odometry_to_base_state(msg)
 
     def _on_imu(self, msg: Imu) -> None:
         o, w = msg.orientation, msg.angular_velocity
         if not all(math.isfinite(v) for v in (o.x, o.y, o.z, o.w, w.x, w.y, w.z)) or not (
             o.x * o.x + o.y * o.y + o.z * o.z + o.w * o.w > 1e-6
         ):
-            self._dropped += 1
+            self._reject("imu", "non_finite")
             return
-        self._imu = msg
-        self._maybe_tick()
+        if self._stamp_ok("imu", msg.header.stamp):
+            self._imu = msg
+            self._maybe_tick()
 
     def _on_joints(self, msg: JointState) -> None:
         if len(msg.position) != len(msg.name) or not all(
             math.isfinite(v) for v in (*msg.position, *msg.velocity)
         ):
-            self._dropped += 1
+            self._reject("joint_states", "non_finite")
             return
-        self._joints = msg
-        self._maybe_tick()
+        if self._stamp_ok("joint_states", msg.header.stamp):
+            self._joints = msg
+            self._maybe_tick()
 
     def _base_state(self, t: float) -> BaseState:
         """Base state at ``t``: IMU attitude and rates, odometry position and velocity."""
@@ -236,7 +267,8 @@ class GaitControllerNode(Node):
             "gait_controller",
             level,
             "command stale: standing" if self._command_stale else "tracking /cmd_vel_safe",
-            {"ticks": self._ticks, "mean_tick_ms": f"{mean_ms:.3f}", "dropped": self._dropped},
+            {"ticks": self._ticks, "mean_tick_ms": f"{mean_ms:.3f}", "dropped": self._dropped,
+             **{f"rejected_{k}": n for k, n in sorted(self.rejected.items())}},
         )
         self._diag_pub.publish(ros_common.diagnostic_array(self, [status]))
 
