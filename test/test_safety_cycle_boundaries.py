@@ -423,22 +423,38 @@ def test_reverse_speed_is_limited_by_max_reverse_speed_not_max_speed():
     assert max(o.command.vx for o in forward) == pytest.approx(P.max_speed, abs=1e-12)
 
 
-def test_measured_reverse_beyond_the_limit_starts_the_command_at_the_limit():
-    fast_back = VelocityCommand(-2.0 * P.max_reverse_speed)
-    out = SafetyFilterCycle(P).step(T0, fast_back, T0, base(T0, fast_back), [], T0)
-    assert out.command.vx >= -P.max_reverse_speed - 1e-12
+@pytest.mark.parametrize("direction", [-1.0, 1.0], ids=["backward", "forward"])
+def test_measured_speed_beyond_a_limit_starts_the_command_at_the_limit(direction):
+    limit = P.max_reverse_speed if direction < 0 else P.max_speed
+    fast = VelocityCommand(1.5 * direction * limit)
+    out = SafetyFilterCycle(P).step(T0, fast, T0, base(T0, fast), [], T0)
+    assert direction * out.command.vx <= limit + 1e-12
+    # The integrator starts at the limit, not beyond it: the reported input is what moved it.
+    assert out.command.vx == pytest.approx(direction * limit + out.u_safe[0] * PERIOD,
+                                           abs=1e-12)
 
 
-def test_command_leads_a_stuck_robot_by_at_most_the_windup_band():
-    cycle = SafetyFilterCycle(P)
-    vx = []
+@pytest.mark.parametrize(
+    "axis, sign", [("vx", 1.0), ("vx", -1.0), ("yaw_rate", 1.0), ("yaw_rate", -1.0)]
+)
+def test_command_leads_a_stuck_robot_by_at_most_the_windup_band(axis, sign):
+    # Reverse limit above the band, so that the band (not the limit) stops a backward lead.
+    params = P.updated(max_reverse_speed=2.0 * P.windup_band)
+    limit, accel = (
+        (params.max_speed, params.max_accel) if axis == "vx"
+        else (params.max_yaw_rate, params.max_yaw_accel)
+    )
+    assert params.windup_band < 0.5 * limit  # the premise: the band binds first
+    ref = VelocityCommand(**{axis: sign * limit})
+    cycle = SafetyFilterCycle(params)
+    cmd = []
     for k in range(60):
         t = T0 + k * PERIOD
-        out = cycle.step(t, VelocityCommand(P.max_speed), t, base(t), [], t)  # robot stuck
-        vx.append(out.command.vx)
-    step = P.max_accel * PERIOD
-    assert P.windup_band < vx[-1] <= P.windup_band + step + 1e-12
-    assert vx[-1] == vx[-10]  # integration stopped
+        out = cycle.step(t, ref, t, base(t), [], t)  # the robot does not move
+        assert out.status is CycleStatus.INACTIVE, out.text
+        cmd.append(sign * getattr(out.command, axis))
+    assert params.windup_band < cmd[-1] <= params.windup_band + accel * PERIOD + 1e-12
+    assert cmd[-1] == cmd[-10]  # integration stopped
 
 
 @pytest.mark.parametrize("direction", [-1.0, 1.0], ids=["down", "up"])
