@@ -137,6 +137,21 @@ def driver(ros_executor, request):
 
 
 PILLAR = ScriptedObstacle("pillar", np.array([2.0, 0.05, 0.5]))
+# The simple robot lags its command (tau = 0.1 s): the body point may fall this far into the
+# inflation margin that the filter keeps it out of.
+LAG_TOLERANCE = 0.01
+
+
+def vertical_clearance_needed(params) -> float:
+    """Least distance (m) from the body point to a pillar's surface the filter keeps: the
+    inflation of ``obstacle_input``: half the robot width plus the safety margin (the
+    tie-break moves the circle as far as it grows it, so it adds nothing on the passing side)."""
+    return 0.5 * params.robot_width + params.safety_margin - LAG_TOLERANCE
+
+
+def horizontal_clearance_needed(params) -> float:
+    """The same for a bar, in x-z: half the robot height plus the safety margin."""
+    return 0.5 * params.robot_height + params.safety_margin - LAG_TOLERANCE
 
 
 def test_static_obstacle_steers_or_brakes_and_h_stays_non_negative(driver):
@@ -145,7 +160,7 @@ def test_static_obstacle_steers_or_brakes_and_h_stays_non_negative(driver):
     assert S.ACTIVE in {s.status for s in states}
     h = [s.min_h for s in states if s.h]
     assert min(h) >= -1e-3
-    assert gap > 0.15
+    assert gap > vertical_clearance_needed(driver.filter.cycle.params)
     lat = np.array(driver.filter.latencies)
     print(f"odometry -> /cmd_vel_safe latency median {1e3 * np.median(lat):.3f} ms")
 
@@ -154,7 +169,7 @@ def test_moving_obstacle_on_a_collision_course_is_avoided(driver):
     mover = ScriptedObstacle("mover", np.array([4.0, 0.0, 0.5]), np.array([-0.4, 0.0, 0.0]))
     states, gap = driver.run(SimpleRobot(), [mover], VelocityCommand(0.5), 8.0)
     assert S.ACTIVE in {s.status for s in states}
-    assert gap > 0.15
+    assert gap > vertical_clearance_needed(driver.filter.cycle.params)
 
 
 def test_bar_ahead_gives_negative_vertical_speed(driver):
@@ -163,7 +178,7 @@ def test_bar_ahead_gives_negative_vertical_speed(driver):
     robot = SimpleRobot()
     states, gap = driver.run(robot, [bar], VelocityCommand(0.4), 7.0)
     assert min(s.filtered.linear.z for s in states) < -0.02
-    assert gap > 0.06
+    assert gap > horizontal_clearance_needed(driver.filter.cycle.params)
     assert robot.x > 2.0
 
 
@@ -181,14 +196,25 @@ def test_stale_odometry_brakes_to_zero(driver):
     assert spin_until(driver.executor, lambda: driver.commands[-1].linear.x == 0.0, timeout=5)
 
 
-def test_stale_obstacles_brake(driver):
+def test_stale_obstacles_brake_to_zero_at_the_brake_deceleration(driver):
     robot = SimpleRobot()
     driver.run(robot, [], VelocityCommand(0.5), 1.0)
-    state = None
-    for k in range(1, 40):
+    params = driver.filter.cycle.params
+    states = [driver.states[-1]]
+    for k in range(1, 40):  # odometry and the reference go on: one cycle per step
         t = 1.0 + k * DT
-        state = driver.step(t, robot, [], twist(0.5), obstacles_stamp=0.2)
-    assert state.status == S.STALE_INPUT and "obstacles" in state.status_text
+        states.append(driver.step(t, robot, [], twist(0.5), obstacles_stamp=0.2))
+    stale = [s.status == S.STALE_INPUT for s in states]
+    # The stale list may reach the node just after the odometry of its step (two topics).
+    first = stale.index(True)
+    assert first <= 10 and all(stale[first:]), stale
+    assert all("obstacles" in s.status_text for s in states[first:])
+    speeds = [s.filtered.linear.x for s in states[first - 1:]]
+    assert speeds[0] > 0.3, "did not reach speed before the obstacles went stale"
+    step = params.brake_decel * DT
+    for before, after in zip(speeds, speeds[1:], strict=False):
+        assert after == pytest.approx(max(before - step, 0.0), abs=1e-9), speeds
+    assert speeds[-1] == 0.0
 
 
 def test_stale_reference_becomes_zero(driver):
