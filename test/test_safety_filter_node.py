@@ -201,13 +201,15 @@ def test_stale_obstacles_brake_to_zero_at_the_brake_deceleration(driver):
     driver.run(robot, [], VelocityCommand(0.5), 1.0)
     params = driver.filter.cycle.params
     states = [driver.states[-1]]
-    for k in range(1, 40):  # odometry and the reference go on: one cycle per step
+    for k in range(1, 60):  # odometry and the reference go on: one cycle per step
         t = 1.0 + k * DT
         states.append(driver.step(t, robot, [], twist(0.5), obstacles_stamp=0.2))
     stale = [s.status == S.STALE_INPUT for s in states]
-    # The stale list may reach the node just after the odometry of its step (two topics).
+    # Lists stamped 0.2 s are rejected on arrival (older than the timeout), so the last good
+    # list (stamped 1.0 s) goes stale once obstacles_timeout has passed (+1 cycle: two topics).
     first = stale.index(True)
-    assert first <= 10 and all(stale[first:]), stale
+    assert abs(first - params.obstacles_timeout / DT) <= 1.5 and all(stale[first:]), stale
+    assert driver.filter.rejected["obstacles_stale_stamp"] >= 30
     assert all("obstacles" in s.status_text for s in states[first:])
     speeds = [s.filtered.linear.x for s in states[first - 1:]]
     assert speeds[0] > 0.3, "did not reach speed before the obstacles went stale"
