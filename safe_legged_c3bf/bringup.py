@@ -66,6 +66,9 @@ PROGRESS_PERIOD_LOG = 5.0
 HOUSEKEEPING_PERIOD = 0.1
 #: Sim seconds a --stop-on-outcome run goes on after its deciding event (data to plot).
 OUTCOME_HOLD = 1.0
+#: After a node dies or freezes, the run goes on this long (sim s; at most the wall s) so the
+#: report shows the remaining graph's fail-safe (the robot stopping) before the run ends.
+FAILURE_WATCH_SIM, FAILURE_WATCH_WALL = 2.0, 10.0
 
 
 class StartupError(RuntimeError):
@@ -617,6 +620,14 @@ class Bringup:
                 EXIT_FAILED, proc.name, lines,
             )
             return True
+        for proc in self.supervisor.running():
+            if proc.frozen():
+                self.outcome = Outcome(
+                    "node_died",
+                    f"node {proc.name} (pid {proc.pid}) is frozen (stopped by a signal)",
+                    EXIT_FAILED, proc.name, [],
+                )
+                return True
         return False
 
     def _finish_grace(self) -> float:
@@ -714,6 +725,7 @@ class Bringup:
         reached_at: float | None = None
         last_progress_sim, last_progress_wall = -math.inf, time.monotonic()
         last_check = -math.inf
+        failed: tuple[float, float] | None = None  # (sim, wall) time a node was found dead
         while not self.stop_request:
             self.executor.spin_once(timeout_sec=0.05)
             now = time.monotonic()
@@ -728,9 +740,20 @@ class Bringup:
             duration_reached = t is not None and t >= duration - 1e-6
             if duration_reached and reached_at is None:
                 reached_at = now
-            if self._check_processes():
+            if failed is None and self._check_processes():
                 self._done = self.outcome.kind == "completed"
-                return
+                if self.outcome.kind != "node_died" or self.outcome.failed_node == "simulator":
+                    return
+                # Keep the simulator running a little: the report shows the fail-safe at work
+                # (the robot stopping without the dead node) from ground truth.
+                failed = (t if t is not None else 0.0, now)
+                _err(self.progress, f"{self.outcome.reason}: watching the fail-safe for "
+                     f"{FAILURE_WATCH_SIM:g} s of sim time")
+            if failed is not None:
+                if (t is not None and t >= failed[0] + FAILURE_WATCH_SIM) or (
+                        now - failed[1] > FAILURE_WATCH_WALL):
+                    return
+                continue
             if self._in_process_finished():
                 self.outcome = Outcome("completed", "the simulator finished the scenario")
                 self._done = True

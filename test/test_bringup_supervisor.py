@@ -98,3 +98,19 @@ def test_children_die_with_a_killed_supervisor(tmp_path):
             parent.wait()
         if child is not None and not _gone(child):
             os.killpg(child, signal.SIGKILL)
+
+
+def test_a_frozen_child_is_seen_and_still_stopped_politely(tmp_path):
+    sup = Supervisor(tmp_path / "logs", _env())
+    proc = sup.start(NodeSpec("sleeper", "fake_idle_node"))
+    _wait_ready(proc)
+    assert not proc.frozen()
+    os.kill(proc.pid, signal.SIGSTOP)
+    deadline = time.monotonic() + 5
+    while not proc.frozen() and time.monotonic() < deadline:
+        time.sleep(0.02)
+    assert proc.frozen()
+    escalated = sup.stop()
+    assert escalated == []  # continued, then stopped by SIGINT: no SIGKILL needed
+    assert proc.poll() == 0
+    assert not proc.frozen()

@@ -151,6 +151,16 @@ class ManagedProcess:
         except (ProcessLookupError, PermissionError):
             return False
 
+    def frozen(self) -> bool:
+        """True when the process is stopped (SIGSTOP/SIGTSTP: state T in /proc)."""
+        try:
+            with open(f"/proc/{self.pid}/stat", encoding="ascii", errors="replace") as f:
+                stat = f.read()
+        except OSError:
+            return False
+        state = stat.rpartition(")")[2].split()  # after "pid (comm)": state first
+        return bool(state) and state[0] in ("T", "t")
+
     def group_alive(self) -> bool:
         """True while any process of the child's process group exists."""
         if self.popen.poll() is None:
@@ -258,6 +268,7 @@ class Supervisor:
         for proc in procs:
             proc.stopping = True
             if proc.poll() is None:
+                proc.signal_group(signal.SIGCONT)  # a frozen child must run to handle SIGINT
                 proc.signal_group(signal.SIGINT)
         steps = [
             (start + min(SIGINT_GRACE, total * 0.45), signal.SIGTERM),
