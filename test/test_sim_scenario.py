@@ -125,11 +125,11 @@ def test_not_yaml(tmp_path):
 
 
 def test_planner_and_overrides():
-    data = _with("planner", {"mode": "constant_velocity", "velocity": [0.3, 0.0], "lookahead": 1.5})
+    data = _with("planner", {"mode": "constant_velocity", "velocity": [0.3, 0.0], "k_z": 1.5})
     data["filter"] = {"enabled": False, "gamma": 2.0}
     sc = parse_scenario(data)
     assert sc.planner.velocity == (0.3, 0.0, 0.0, 0.0)
-    assert sc.planner.params == {"lookahead": 1.5}
+    assert sc.planner.params == {"k_z": 1.5}
     assert sc.filter_overrides == {"enabled": False, "gamma": 2.0}
     with pytest.raises(ScenarioError, match="planner.velocity: is required"):
         parse_scenario(_with("planner", {"mode": "constant_velocity"}))
@@ -152,3 +152,86 @@ def test_documented_example_is_valid():
     sc = parse_scenario(yaml.safe_load(block))
     assert [o.id for o in sc.obstacles] == ["pillar", "walker", "cart", "bar"]
     assert sc.obstacles[3].plane == "horizontal" and sc.filter_overrides == {"gamma": 1.0}
+
+
+# ------------------------------------------------------------------- issue #14: validation
+
+
+def _load_file(tmp_path, data, name="bad.yaml"):
+    """load_scenario on ``data`` written to a file; returns the ScenarioError's message."""
+    file = tmp_path / name
+    file.write_text(data if isinstance(data, str) else yaml.safe_dump(data))
+    with pytest.raises(ScenarioError) as err:
+        load_scenario(str(file))
+    message = str(err.value)
+    assert message.startswith(str(file.resolve())), message
+    return message
+
+
+@pytest.mark.parametrize("text", ["", "# only a comment\n", "{}\n", "---\n"])
+def test_empty_file_is_refused(tmp_path, text):
+    message = _load_file(tmp_path, text, "empty.yaml")
+    assert "empty" in message
+
+
+def test_empty_mapping_is_refused_in_code():
+    with pytest.raises(ScenarioError, match="empty"):
+        parse_scenario({})
+
+
+@pytest.mark.parametrize(
+    ("section", "key", "message"),
+    [
+        ("filter", "gama", "unknown key 'gama' under filter (did you mean 'gamma'?)"),
+        ("tracker", "max_coast", "unknown key 'max_coast' under tracker (did you mean "
+                                 "'max_coast_time'?)"),
+        ("controller", "command_timout", "unknown key 'command_timout' under controller "
+                                         "(did you mean 'command_timeout'?)"),
+        ("planner", "kz", "unknown key 'kz' under planner (did you mean 'k_z'?)"),
+        ("controller", "min_body_height", "unknown key 'min_body_height' under controller"),
+    ],
+)
+def test_unknown_override_keys_are_refused_at_load(tmp_path, section, key, message):
+    data = _with(section, {key: 1.0})
+    assert message in _load_file(tmp_path, data)
+
+
+def test_real_override_keys_load():
+    data = dict(BASE)
+    data["filter"] = {"gamma": 2.0, "weights": [1.0, 0.1, 0.5], "enabled": False}
+    data["tracker"] = {"rate": 20.0, "max_range": 10.0, "max_coast_time": 0.5,
+                       "publish_unestimated_velocity": True}
+    data["controller"] = {"command_timeout": 0.3}
+    data["planner"] = {"mode": "goal", "k_z": 0.3, "max_yaw_rate": 0.5}
+    sc = parse_scenario(data)
+    assert sc.overrides["tracker"]["max_coast_time"] == 0.5
+    assert sc.planner.params == {"k_z": 0.3, "max_yaw_rate": 0.5}
+
+
+@pytest.mark.parametrize(
+    ("path", "value", "first"),
+    [
+        # A misspelt required field: the unknown key is named, not "is required".
+        ("obstacles.1", {"id": "b", "position": [2.0, -1.0], "semi_axis": [0.3, 0.3]},
+         "obstacles[1].semi_axis: unknown field (did you mean 'semi_axes'?"),
+        ("obstacles.1.motion", {"type": "waypoints", "waypoints": [[2.0, 1.0]], "sped": 1.0},
+         "obstacles[1].motion.sped: unknown field (did you mean 'speed'?"),
+        ("obstacles.1.motion", {"type": "constant_velocity", "velocty": [0.0, 1.0]},
+         "obstacles[1].motion.velocty: unknown field (did you mean 'velocity'?"),
+        ("planner", {"mode": "constant_velocity", "velocit": [0.3]},
+         "planner.velocit: unknown key 'velocit' under planner (did you mean 'velocity'?)"),
+    ],
+)
+def test_unknown_keys_are_named_before_missing_ones(tmp_path, path, value, first):
+    message = _load_file(tmp_path, _with(path, value))
+    assert message.split(": ", 1)[1].startswith(first), message
+    assert "is required" not in message
+
+
+def test_unknown_keys_come_first_across_the_file(tmp_path):
+    data = _with("obstacles.0", {"id": "a", "position": [1.0, 1.0]})  # semi_axes missing
+    data["obstacles"][1]["colour"] = [1, 0, 0]  # a later typo
+    message = _load_file(tmp_path, data)
+    assert message.split(": ", 1)[1].startswith("obstacles[1].colour: unknown field"), message
+    assert "obstacles[0].semi_axes: is required" in message  # still reported, after it
+
