@@ -51,7 +51,7 @@ def test_random_scenario_is_deterministic_per_seed(robot):
 def test_random_scenarios_are_valid(robot):
     for seed in SEEDS:
         data = rs.generate_scenario(robot, seed)
-        sc = parse_scenario(data, name=data["name"])
+        sc = parse_scenario(data, name=data["name"], check_clearance=True)
         assert sc.robot.kind == robot
         assert sc.seed == seed
         assert sc.name == f"random_{robot}_{seed:03d}"

@@ -61,6 +61,9 @@ def test_gait_controller_declares_the_listed_parameters():
         ("controller", {"command_timeout": 1}, "controller.command_timeout: must be a floating"),
         ("tracker", {"confirm_hits": 2.5}, "tracker.confirm_hits: must be an integer"),
         ("planner", {"k_z": "fast"}, "planner.k_z: must be a number"),
+        # Values the node itself would refuse at start-up, for the filter (FilterParams).
+        ("filter", {"gamma": -1.0}, "filter.gamma: must be a finite number > 0"),
+        ("filter", {"min_height": 0.4, "max_height": 0.3}, "filter.min_height/max_height"),
         # The planner's scenario parameter is the bringup's.
         ("planner", {"scenario": "other"}, "planner.scenario: unknown key 'scenario'"),
     ],

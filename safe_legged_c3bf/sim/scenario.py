@@ -24,6 +24,7 @@ import yaml
 
 from safe_legged_c3bf.config import config_path
 from safe_legged_c3bf.sim.robots import robot_spec
+from safe_legged_c3bf.sim.scenario_clearance import clearance_problems, filter_params
 from safe_legged_c3bf.sim.scenario_schema import (
     MOTION_TYPES,
     PLANES,
@@ -328,11 +329,18 @@ def _build(doc: Any, name: str, source: str) -> Scenario:
     )
 
 
-def parse_scenario(data: Any, name: str = "scenario", source: str = "") -> Scenario:
+def parse_scenario(
+    data: Any, name: str = "scenario", source: str = "", *, check_clearance: bool = False
+) -> Scenario:
     """Validate a scenario mapping (as loaded from YAML) and return a :class:`Scenario`.
 
-    Checks the structure and every value (unknown keys first, then missing and invalid ones,
-    all of them; override keys against the nodes' real parameter names).
+    Checks, in this order: the structure and every value (unknown keys first, then missing
+    and invalid ones, all of them; override keys against the nodes' real parameter names);
+    the safety filter's parameters with the scenario's ``filter:`` overrides applied; with
+    ``check_clearance`` (always done by :func:`load_scenario`), that neither the start nor the
+    goal is inside an obstacle as the filter inflates it (:mod:`.scenario_clearance`). Code
+    may leave that last check out, e.g. to put an obstacle right at the robot in a simulator
+    test; a scenario file never can.
 
     Raises:
         ScenarioError: one line per problem, each naming the field.
@@ -346,7 +354,15 @@ def parse_scenario(data: Any, name: str = "scenario", source: str = "") -> Scena
     doc, errors = validate_document(data)
     if errors:
         raise ScenarioError("\n".join(errors))
-    return _build(doc, name, source)
+    scenario = _build(doc, name, source)
+    try:
+        params = filter_params(scenario)
+    except ValueError as err:
+        raise ScenarioError(f"filter.{err}" if ":" in str(err) else f"filter: {err}") from None
+    problems = clearance_problems(scenario, params) if check_clearance else []
+    if problems:
+        raise ScenarioError("\n".join(problems))
+    return scenario
 
 
 # --------------------------------------------------------------------------- lookup and loading
@@ -412,7 +428,7 @@ def load_scenario(name_or_path: str | os.PathLike[str] | Scenario) -> Scenario:
             "obstacles), see doc/scenario_format.md"
         )
     try:
-        return parse_scenario(data, name=path.stem, source=str(path))
+        return parse_scenario(data, name=path.stem, source=str(path), check_clearance=True)
     except ScenarioError as exc:
         lines = str(exc).splitlines()
         raise ScenarioError("\n".join(f"{path}: {line}" for line in lines)) from None
