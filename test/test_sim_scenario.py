@@ -333,3 +333,10 @@ def test_code_may_put_an_obstacle_at_the_robot():
     assert parse_scenario(data).robot.position == (1.0, 1.0)
     with pytest.raises(ScenarioError, match="obstacle 'a'"):
         parse_scenario(data, check_clearance=True)
+
+
+def test_doc_lists_every_packaged_scenario():
+    doc = (Path(__file__).resolve().parents[1] / "doc" / "scenario_format.md").read_text()
+    table = doc.split("Packaged scenarios:", 1)[1].split("## ", 1)[0]
+    listed = [line.split("`")[1] for line in table.splitlines() if line.startswith("| `")]
+    assert listed == available_scenarios()
