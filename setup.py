@@ -34,6 +34,7 @@ PYTHON_DEPS = [
     "imageio>=2.30",
     "imageio-ffmpeg>=0.5",
     "mcap-ros2-support>=0.5",
+    "pydantic>=2",
 ]
 
 

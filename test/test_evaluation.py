@@ -22,6 +22,8 @@ from safe_legged_c3bf.evaluation.results import (
     write_results,
 )
 from safe_legged_c3bf.evaluation.runner import (
+    OUTCOMES,
+    RUN_FAILURES,
     Runner,
     RunSpec,
     bringup_command,
@@ -51,7 +53,7 @@ def test_random_scenario_is_deterministic_per_seed(robot):
 def test_random_scenarios_are_valid(robot):
     for seed in SEEDS:
         data = rs.generate_scenario(robot, seed)
-        sc = parse_scenario(data, name=data["name"])
+        sc = parse_scenario(data, name=data["name"], check_clearance=True)
         assert sc.robot.kind == robot
         assert sc.seed == seed
         assert sc.name == f"random_{robot}_{seed:03d}"
@@ -245,6 +247,95 @@ def test_classification():
         "wall_timeout")
     assert classify({"has_report": True, "exit_code": 130, "goal_reached": True})[0] == (
         "interrupted")
+
+
+def row(**changes):
+    """A result row of a completed run that reached its goal; ``changes`` applied, and a
+    value of ``MISSING`` removes the field."""
+    rec = {"has_report": True, "exit_code": 0, "timed_out": False, "run_outcome": "completed",
+           "collision": False, "fallen": False, "goal_reached": True, "relaxed_share": 0.0}
+    rec.update(changes)
+    return {k: v for k, v in rec.items() if v is not MISSING}
+
+
+MISSING = object()
+
+
+@pytest.mark.parametrize(
+    ("changes", "outcome", "flags"),
+    [
+        ({}, "ok", []),
+        ({"has_report": MISSING}, "ok", []),  # a complete row speaks for itself
+        # Run failures, whatever the report says.
+        ({"exit_code": 1, "run_outcome": "stalled", "goal_reached": False},
+         "node_died", ["node_died", "goal_not_reached"]),
+        ({"run_outcome": "stalled", "goal_reached": False},
+         "node_died", ["node_died", "goal_not_reached"]),
+        ({"exit_code": 1}, "node_died", ["node_died"]),
+        ({"run_outcome": "node_died"}, "node_died", ["node_died"]),
+        ({"exit_code": 3}, "node_died", ["node_died"]),  # any other failing exit
+        ({"exit_code": 2}, "startup_failed", ["startup_failed"]),
+        ({"run_outcome": "startup_failed"}, "startup_failed", ["startup_failed"]),
+        ({"has_report": False, "exit_code": 1, "run_outcome": None, "collision": None,
+          "fallen": None, "goal_reached": None}, "startup_failed", ["startup_failed"]),
+        ({"timed_out": True, "exit_code": 130}, "wall_timeout", ["wall_timeout"]),
+        ({"timed_out": True, "exit_code": -9, "has_report": False, "collision": None,
+          "fallen": None, "goal_reached": None}, "wall_timeout", ["wall_timeout"]),
+        ({"exit_code": 130}, "interrupted", ["interrupted"]),
+        ({"exit_code": 143}, "interrupted", ["interrupted"]),
+        ({"exit_code": 129}, "interrupted", ["interrupted"]),
+        ({"exit_code": -15}, "interrupted", ["interrupted"]),  # killed by a signal
+        ({"run_outcome": "interrupted"}, "interrupted", ["interrupted"]),
+        # Ground truth.
+        ({"collision": True, "fallen": True, "goal_reached": False},
+         "collided", ["collided", "fell", "goal_not_reached"]),
+        ({"fallen": True}, "fell", ["fell"]),
+        ({"goal_reached": False}, "goal_not_reached", ["goal_not_reached"]),
+        ({"relaxed_share": 0.02}, "ok", ["infeasible"]),
+        ({"relaxed_share": 0.02, "goal_reached": False},
+         "goal_not_reached", ["goal_not_reached", "infeasible"]),
+        ({"relaxed_share": None}, "ok", []),  # filter off: no statuses
+        # Missing fields fail closed: never ok.
+        ({"collision": MISSING}, "incomplete_report", ["incomplete_report"]),
+        ({"collision": None}, "incomplete_report", ["incomplete_report"]),
+        ({"fallen": MISSING}, "incomplete_report", ["incomplete_report"]),
+        ({"goal_reached": MISSING}, "incomplete_report", ["incomplete_report"]),
+        ({"goal_reached": "yes"}, "incomplete_report", ["incomplete_report"]),
+        ({"collision": MISSING, "fallen": MISSING, "goal_reached": MISSING},
+         "incomplete_report", ["incomplete_report"]),
+        # Precedence.
+        ({"exit_code": 2, "run_outcome": "node_died"}, "startup_failed", ["startup_failed"]),
+        ({"timed_out": True, "exit_code": 1}, "wall_timeout", ["wall_timeout"]),
+        ({"exit_code": 1, "run_outcome": "interrupted"}, "node_died", ["node_died"]),
+        ({"exit_code": 2, "run_outcome": "interrupted"}, "startup_failed", ["startup_failed"]),
+        ({"exit_code": 1, "collision": True}, "node_died", ["node_died", "collided"]),
+        ({"exit_code": 130, "fallen": True}, "interrupted", ["interrupted", "fell"]),
+        ({"timed_out": True, "collision": True}, "wall_timeout", ["wall_timeout", "collided"]),
+        ({"collision": True, "fallen": MISSING}, "collided", ["collided", "incomplete_report"]),
+        ({"fallen": True, "goal_reached": MISSING}, "fell", ["fell", "incomplete_report"]),
+        ({"collision": MISSING, "goal_reached": False},
+         "incomplete_report", ["incomplete_report", "goal_not_reached"]),
+        ({"exit_code": 1, "collision": MISSING}, "node_died", ["node_died", "incomplete_report"]),
+    ],
+)
+def test_classify_outcomes_and_precedence(changes, outcome, flags):
+    assert classify(row(**changes)) == (outcome, flags)
+    assert outcome in OUTCOMES
+
+
+def test_outcomes_are_documented_and_incomplete_reports_are_run_failures():
+    from safe_legged_c3bf.evaluation import runner
+
+    for outcome in OUTCOMES:
+        assert f"``{outcome}``" in runner.__doc__
+    assert "incomplete_report" in RUN_FAILURES and "ok" not in RUN_FAILURES
+    # Without collision and fall fields a row says nothing about safety: no rates from it.
+    report = make_report()
+    del report["summary"]["collision"]
+    rec = record_from_report(spec(), report)
+    assert rec["outcome"] == "incomplete_report"
+    group = summarize_group([rec, record_from_report(spec("b"), make_report())])
+    assert group["runs"] == 2 and group["run_failures"] == 1 and group["success_rate"] == 1.0
 
 
 def synthetic_records():

@@ -125,11 +125,11 @@ def test_not_yaml(tmp_path):
 
 
 def test_planner_and_overrides():
-    data = _with("planner", {"mode": "constant_velocity", "velocity": [0.3, 0.0], "lookahead": 1.5})
+    data = _with("planner", {"mode": "constant_velocity", "velocity": [0.3, 0.0], "k_z": 1.5})
     data["filter"] = {"enabled": False, "gamma": 2.0}
     sc = parse_scenario(data)
     assert sc.planner.velocity == (0.3, 0.0, 0.0, 0.0)
-    assert sc.planner.params == {"lookahead": 1.5}
+    assert sc.planner.params == {"k_z": 1.5}
     assert sc.filter_overrides == {"enabled": False, "gamma": 2.0}
     with pytest.raises(ScenarioError, match="planner.velocity: is required"):
         parse_scenario(_with("planner", {"mode": "constant_velocity"}))
@@ -152,3 +152,191 @@ def test_documented_example_is_valid():
     sc = parse_scenario(yaml.safe_load(block))
     assert [o.id for o in sc.obstacles] == ["pillar", "walker", "cart", "bar"]
     assert sc.obstacles[3].plane == "horizontal" and sc.filter_overrides == {"gamma": 1.0}
+
+
+# ------------------------------------------------------------------- issue #14: validation
+
+
+def _checked(data):
+    """parse_scenario with every check a scenario file gets (as load_scenario does)."""
+    return parse_scenario(data, check_clearance=True)
+
+
+def _load_file(tmp_path, data, name="bad.yaml"):
+    """load_scenario on ``data`` written to a file; returns the ScenarioError's message."""
+    file = tmp_path / name
+    file.write_text(data if isinstance(data, str) else yaml.safe_dump(data))
+    with pytest.raises(ScenarioError) as err:
+        load_scenario(str(file))
+    message = str(err.value)
+    assert message.startswith(str(file.resolve())), message
+    return message
+
+
+@pytest.mark.parametrize("text", ["", "# only a comment\n", "{}\n", "---\n"])
+def test_empty_file_is_refused(tmp_path, text):
+    message = _load_file(tmp_path, text, "empty.yaml")
+    assert "empty" in message
+
+
+def test_empty_mapping_is_refused_in_code():
+    with pytest.raises(ScenarioError, match="empty"):
+        parse_scenario({})
+
+
+def test_start_inside_an_obstacle_is_refused(tmp_path):
+    data = _with("robot.position", [1.0, 1.0])  # on obstacle a
+    message = _load_file(tmp_path, data)
+    assert "robot.position" in message and "obstacle 'a'" in message
+    assert "inside" in message and " m" in message  # the distances, in metres
+
+
+def test_goal_inside_an_inflated_obstacle_is_refused(tmp_path):
+    # 0.6 m from the centre of b (radius 0.3): outside the obstacle itself, but inside it
+    # inflated by half the A1's width (0.41 m) and the safety margin (0.05 m).
+    data = _with("goal.position", [2.0, -0.4])
+    message = _load_file(tmp_path, data)
+    assert "goal.position" in message and "obstacle 'b'" in message
+    assert "0.600 m" in message and "0.760 m" in message
+
+
+def test_start_and_goal_clear_of_obstacles_load():
+    sc = _checked(_with("goal.position", [2.0, -0.23]))  # 0.77 m from b: just outside
+    assert sc.goal.position == (2.0, -0.23)
+
+
+def test_inflation_follows_the_filter_overrides(tmp_path):
+    # With a 0.2 m margin the same goal is inside; with a 0 margin a closer one is outside.
+    data = _with("goal.position", [2.0, -0.23])
+    data["filter"] = {"safety_margin": 0.2}
+    assert "obstacle 'b'" in _load_file(tmp_path, data)
+    data = _with("goal.position", [2.0, -0.28])  # 0.72 m from b
+    data["filter"] = {"safety_margin": 0.0}
+    _checked(data)
+
+
+def test_biped_inflation_uses_its_robot_profile():
+    # The biped's filter is 0.86 m wide (config/robots/biped.yaml): 0.3 + 0.43 + 0.05 = 0.78.
+    data = _with("robot.kind", "biped")
+    data["goal"]["position"] = [2.0, -1.77]  # 0.77 m from b: outside for the A1 (0.76) ...
+    with pytest.raises(ScenarioError, match="obstacle 'b'"):
+        _checked(data)  # ... inside for the biped
+    data["robot"]["kind"] = "quadruped"
+    _checked(data)
+
+
+def test_moving_obstacles_are_checked_where_they_start():
+    # A mover that starts on the robot is refused ...
+    data = _with("obstacles.1", {"id": "m", "position": [0.3, 0.0], "semi_axes": [0.2, 0.2],
+                                 "motion": {"type": "constant_velocity", "velocity": [0.0, 1.0]}})
+    with pytest.raises(ScenarioError, match="robot.position.*obstacle 'm'"):
+        _checked(data)
+    # ... one that only crosses the goal later is not (the filter handles it) ...
+    data = _with("obstacles.1", {"id": "m", "position": [3.0, -2.0], "semi_axes": [0.2, 0.2],
+                                 "motion": {"type": "waypoints", "waypoints": [[3.0, 2.0]],
+                                            "speed": 0.3}})
+    _checked(data)
+    # ... but one that stops on the goal for good is.
+    data["obstacles"][1]["motion"].update(mode="stop", waypoints=[[3.0, 0.1]])
+    with pytest.raises(ScenarioError, match=r"goal.position.*obstacle 'm'.*stops"):
+        _checked(data)
+
+
+def _bar(z, x=0.0, y=0.0, extent=4.0, radius=0.05):
+    return {"id": "bar", "plane": "horizontal", "position": [x, y, z],
+            "semi_axes": [radius, radius], "extent": extent}
+
+
+def test_start_under_a_bar_too_low_to_duck_is_refused(tmp_path):
+    data = _with("obstacles.0", _bar(0.25))
+    message = _load_file(tmp_path, data)
+    assert "robot.position" in message and "obstacle 'bar'" in message
+    assert "duck" in message
+
+
+def test_start_under_a_bar_the_robot_can_duck_under_loads():
+    # quadruped_horizontal's bar and filter settings: the body may go down to 0.18 m.
+    data = _with("obstacles.0", _bar(0.35))
+    data["filter"] = {"safety_margin": 0.03, "min_height": 0.18, "max_height": 0.285}
+    _checked(data)
+
+
+def test_a_bar_beside_the_start_does_not_count():
+    # 4 m bar centred 3 m to the side: its end is 1 m away, more than half the robot's width
+    # plus the filter's horizontal_y_margin.
+    _checked(_with("obstacles.0", _bar(0.25, y=3.0)))
+    with pytest.raises(ScenarioError, match="obstacle 'bar'"):
+        _checked(_with("obstacles.0", _bar(0.25, y=2.3)))
+
+
+@pytest.mark.parametrize(
+    ("section", "key", "message"),
+    [
+        ("filter", "gama", "unknown key 'gama' under filter (did you mean 'gamma'?)"),
+        ("tracker", "max_coast", "unknown key 'max_coast' under tracker (did you mean "
+                                 "'max_coast_time'?)"),
+        ("controller", "command_timout", "unknown key 'command_timout' under controller "
+                                         "(did you mean 'command_timeout'?)"),
+        ("planner", "kz", "unknown key 'kz' under planner (did you mean 'k_z'?)"),
+        ("controller", "min_body_height", "unknown key 'min_body_height' under controller"),
+    ],
+)
+def test_unknown_override_keys_are_refused_at_load(tmp_path, section, key, message):
+    data = _with(section, {key: 1.0})
+    assert message in _load_file(tmp_path, data)
+
+
+def test_real_override_keys_load():
+    data = dict(BASE)
+    data["filter"] = {"gamma": 2.0, "weights": [1.0, 0.1, 0.5], "enabled": False}
+    data["tracker"] = {"rate": 20.0, "max_range": 10.0, "max_coast_time": 0.5,
+                       "publish_unestimated_velocity": True}
+    data["controller"] = {"command_timeout": 0.3}
+    data["planner"] = {"mode": "goal", "k_z": 0.3, "max_yaw_rate": 0.5}
+    sc = _checked(data)
+    assert sc.overrides["tracker"]["max_coast_time"] == 0.5
+    assert sc.planner.params == {"k_z": 0.3, "max_yaw_rate": 0.5}
+
+
+@pytest.mark.parametrize(
+    ("path", "value", "first"),
+    [
+        # A misspelt required field: the unknown key is named, not "is required".
+        ("obstacles.1", {"id": "b", "position": [2.0, -1.0], "semi_axis": [0.3, 0.3]},
+         "obstacles[1].semi_axis: unknown field (did you mean 'semi_axes'?"),
+        ("obstacles.1.motion", {"type": "waypoints", "waypoints": [[2.0, 1.0]], "sped": 1.0},
+         "obstacles[1].motion.sped: unknown field (did you mean 'speed'?"),
+        ("obstacles.1.motion", {"type": "constant_velocity", "velocty": [0.0, 1.0]},
+         "obstacles[1].motion.velocty: unknown field (did you mean 'velocity'?"),
+        ("planner", {"mode": "constant_velocity", "velocit": [0.3]},
+         "planner.velocit: unknown key 'velocit' under planner (did you mean 'velocity'?)"),
+    ],
+)
+def test_unknown_keys_are_named_before_missing_ones(tmp_path, path, value, first):
+    message = _load_file(tmp_path, _with(path, value))
+    assert message.split(": ", 1)[1].startswith(first), message
+    assert "is required" not in message
+
+
+def test_unknown_keys_come_first_across_the_file(tmp_path):
+    data = _with("obstacles.0", {"id": "a", "position": [1.0, 1.0]})  # semi_axes missing
+    data["obstacles"][1]["colour"] = [1, 0, 0]  # a later typo
+    message = _load_file(tmp_path, data)
+    assert message.split(": ", 1)[1].startswith("obstacles[1].colour: unknown field"), message
+    assert "obstacles[0].semi_axes: is required" in message  # still reported, after it
+
+
+def test_code_may_put_an_obstacle_at_the_robot():
+    # Simulator tests place obstacles right at the robot: parse_scenario checks clearance only
+    # when asked (load_scenario always asks).
+    data = _with("robot.position", [1.0, 1.0])
+    assert parse_scenario(data).robot.position == (1.0, 1.0)
+    with pytest.raises(ScenarioError, match="obstacle 'a'"):
+        parse_scenario(data, check_clearance=True)
+
+
+def test_doc_lists_every_packaged_scenario():
+    doc = (Path(__file__).resolve().parents[1] / "doc" / "scenario_format.md").read_text()
+    table = doc.split("Packaged scenarios:", 1)[1].split("## ", 1)[0]
+    listed = [line.split("`")[1] for line in table.splitlines() if line.startswith("| `")]
+    assert listed == available_scenarios()

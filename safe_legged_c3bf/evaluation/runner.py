@@ -12,23 +12,27 @@ period.
 :mod:`~safe_legged_c3bf.evaluation.results` aggregates and writes to CSV) and
 :func:`classify` names the outcome:
 
-==================  ===========================================================================
-outcome             meaning
-==================  ===========================================================================
-``ok``              completed, goal reached, no collision, not fallen
-``collided``        the ground truth saw a robot-obstacle contact
-``fell``            the base went too low or tilted too far (no collision)
-``goal_not_reached`` the scenario ended (sim time) before the robot reached its goal
-``node_died``       a node died or the simulation stalled (bringup exit 1)
-``startup_failed``  the run could not start (bringup exit 2, or no report was written)
-``wall_timeout``    the runner stopped the run after its wall-clock limit
-``interrupted``     the run was stopped by a signal (Ctrl-C of the evaluation)
-==================  ===========================================================================
+=====================  ========================================================================
+outcome                meaning
+=====================  ========================================================================
+``ok``                 completed, goal reached, no collision, not fallen
+``collided``           the ground truth saw a robot-obstacle contact
+``fell``               the base went too low or tilted too far (no collision)
+``incomplete_report``  the report lacks ``collision``, ``fallen`` or ``goal_reached`` (or one is
+                       not true/false): the run proves nothing, so it is never ``ok``
+``goal_not_reached``   the scenario ended (sim time) before the robot reached its goal
+``node_died``          a node died or the simulation stalled (bringup exit 1, report outcome
+                       ``node_died`` or ``stalled``), or the bringup failed with another code
+``startup_failed``     the run could not start (bringup exit 2, or no report was written)
+``wall_timeout``       the runner stopped the run after its wall-clock limit
+``interrupted``        the run was stopped by a signal (Ctrl-C of the evaluation: bringup exit
+                       129/130/143, or killed)
+=====================  ========================================================================
 
-``failures`` lists every flag that applies (e.g. ``collided+goal_not_reached``); the extra
-flag ``infeasible`` marks runs in which the filter's QP was infeasible for some time (status
-``RELAXED``: the barrier constraints were relaxed), with its share of time in
-``relaxed_share``.
+The outcome is the first of :data:`OUTCOMES` that applies. ``failures`` lists every flag that
+applies (e.g. ``collided+goal_not_reached``); the extra flag ``infeasible`` marks runs in which
+the filter's QP was infeasible for some time (status ``RELAXED``: the barrier constraints were
+relaxed), with its share of time in ``relaxed_share``.
 """
 
 from __future__ import annotations
@@ -50,10 +54,16 @@ from typing import Any
 #: Outcomes in priority order (the first that applies names the run).
 OUTCOMES = (
     "startup_failed", "node_died", "wall_timeout", "interrupted", "collided", "fell",
-    "goal_not_reached", "ok",
+    "incomplete_report", "goal_not_reached", "ok",
 )
 #: Outcomes for which the run produced no trustworthy result.
-RUN_FAILURES = frozenset({"startup_failed", "node_died", "wall_timeout", "interrupted"})
+RUN_FAILURES = frozenset(
+    {"startup_failed", "node_died", "wall_timeout", "interrupted", "incomplete_report"}
+)
+#: Report fields without which a run says nothing about safety or success (true/false each).
+REQUIRED_FIELDS = ("collision", "fallen", "goal_reached")
+#: Bringup exit codes: completed, a node died, start-up failed, stopped by SIGHUP/INT/TERM.
+EXIT_OK, EXIT_FAILED, EXIT_STARTUP, EXIT_SIGNALS = 0, 1, 2, (129, 130, 143)
 #: Wall-clock allowance of a run: STARTUP_ALLOWANCE + duration / MIN_REAL_TIME_FACTOR.
 STARTUP_ALLOWANCE = 120.0
 MIN_REAL_TIME_FACTOR = 0.08
@@ -209,29 +219,36 @@ def record_from_report(
 
 
 def classify(rec: dict[str, Any]) -> tuple[str, list[str]]:
-    """(outcome, failure flags) of a result row; see the module docstring."""
+    """(outcome, failure flags) of a result row; see the module docstring.
+
+    Fails closed: a run is ``ok`` only with a report whose ``collision`` and ``fallen`` are
+    false and ``goal_reached`` is true, from a bringup that exited 0.
+    """
     flags: list[str] = []
     code = rec.get("exit_code")
+    run = rec.get("run_outcome")
+    has_report = rec.get("has_report", True)
     if rec.get("timed_out"):
         flags.append("wall_timeout")
-    elif not rec.get("has_report", True) or code == 2 or rec.get("run_outcome") == "startup_failed":
+    elif not has_report or code == EXIT_STARTUP or run == "startup_failed":
         flags.append("startup_failed")
-    elif code == 1 or rec.get("run_outcome") == "node_died":
+    elif code == EXIT_FAILED or run in ("node_died", "stalled"):
         flags.append("node_died")
-    elif code in (129, 130, 143) or rec.get("run_outcome") == "interrupted":
+    elif code in EXIT_SIGNALS or (code is not None and code < 0) or run == "interrupted":
         flags.append("interrupted")
+    elif code is not None and code != EXIT_OK:  # no bringup code: failed all the same
+        flags.append("node_died")
     if rec.get("collision"):
         flags.append("collided")
     if rec.get("fallen"):
         flags.append("fell")
-    if rec.get("has_report", True) and not rec.get("goal_reached"):
+    if has_report and not all(isinstance(rec.get(f), bool) for f in REQUIRED_FIELDS):
+        flags.append("incomplete_report")
+    if has_report and rec.get("goal_reached") is False:
         flags.append("goal_not_reached")
     if (rec.get("relaxed_share") or 0.0) > 0.0:
         flags.append("infeasible")
-    outcome = next((o for o in OUTCOMES if o in flags), "ok")
-    if outcome == "ok" and not rec.get("has_report", True):
-        outcome = "startup_failed"
-    return outcome, flags
+    return next((o for o in OUTCOMES if o in flags), "ok"), flags
 
 
 # ------------------------------------------------------------------------------ running

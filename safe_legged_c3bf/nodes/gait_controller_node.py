@@ -35,6 +35,7 @@ from safe_legged_c3bf.base_state import BaseState
 from safe_legged_c3bf.controllers import make_gait_controller
 from safe_legged_c3bf.gait_controller import VelocityCommand
 from safe_legged_c3bf.inputs import StampGate, StampVerdict
+from safe_legged_c3bf.node_parameters import CONTROLLER_DEFAULTS
 from safe_legged_c3bf.nodes import ros_common
 from safe_legged_c3bf_msgs.msg import MotorCommand
 
@@ -46,11 +47,8 @@ class GaitControllerNode(Node):
         """Create the node; ``kwargs`` go to rclpy's Node (context, parameter_overrides...)."""
         super().__init__("gait_controller", **kwargs)
         ros_common.use_sim_time(self)
-        self.declare_parameter("robot", "quadruped")
-        self.declare_parameter("command_timeout", 0.5)
-        self.declare_parameter("controller_config", "")
-        self.declare_parameter("diagnostics_period", 1.0)
-        self.declare_parameter("max_future_stamp", 0.1)
+        for name, default in CONTROLLER_DEFAULTS.items():  # robot, command_timeout, ...
+            self.declare_parameter(name, default)
         self._timeout = float(self.get_parameter("command_timeout").value)
         if not self._timeout > 0:
             raise ValueError("command_timeout must be > 0 s")

@@ -48,6 +48,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from safe_legged_c3bf import topics
 from safe_legged_c3bf.inputs import StampGate, StampVerdict
+from safe_legged_c3bf.node_parameters import TRACKER_NODE_DEFAULTS
 from safe_legged_c3bf.nodes import ros_common
 from safe_legged_c3bf.tracking import (
     Detection,
@@ -64,16 +65,7 @@ TRACKER_FIELDS = tuple(f.name for f in fields(TrackerConfig) if f.name != "track
 TRACK_FIELDS = tuple(f.name for f in fields(TrackConfig))
 
 #: Node parameters that are not part of the tracker configuration, with their defaults.
-NODE_DEFAULTS: dict[str, object] = {
-    "rate": 30.0,  # Hz (sim time): /obstacles publish rate
-    "marker_rate": 10.0,  # Hz (sim time): /obstacles/markers rate; 0 disables the markers
-    "marker_inflation": 0.15,  # m added to the largest semi-axis for the inflated circle
-    "detections_timeout": 0.5,  # s (sim time) without detections -> stop publishing
-    "diagnostics_period": 1.0,  # s (sim time)
-    "publish_unestimated_velocity": False,  # send the raw velocity of UNKNOWN tracks
-    "max_future_stamp": 0.1,  # s: stamps further ahead of the node's clock are rejected
-    "max_message_bytes": 262144,  # larger detection messages are rejected undecoded
-}
+NODE_DEFAULTS = TRACKER_NODE_DEFAULTS
 
 _DESCRIPTIONS = {
     "rate": "publish rate of /obstacles (Hz, sim time), > 0",

@@ -33,6 +33,11 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from safe_legged_c3bf import topics
+from safe_legged_c3bf.node_parameters import (
+    NOMINAL_HEIGHT,
+    PLANNER_DEFAULTS,
+    PLANNER_NODE_DEFAULTS,
+)
 from safe_legged_c3bf.nodes import ros_common
 from safe_legged_c3bf.planning.reference_planner import (
     PlannerConfig,
@@ -43,45 +48,9 @@ from safe_legged_c3bf.planning.reference_planner import (
     VelocityCommand,
 )
 
-#: Body height (m, odom z of base_link) the planner holds, per robot kind.
-NOMINAL_HEIGHT = {"quadruped": 0.28, "biped": 0.82}
-
-#: Parameters mapped onto PlannerConfig fields (same names), with the node's defaults.
-PLANNER_DEFAULTS: dict[str, object] = {
-    "mode": "goal",
-    "max_vx": 0.5,
-    "max_vx_backward": 0.25,
-    "max_vy": 0.3,
-    "max_vz": 0.2,
-    "max_yaw_rate": 1.0,
-    "max_linear_accel": 0.0,
-    "max_yaw_accel": 0.0,
-    "k_speed": 0.8,
-    "k_heading": 2.0,
-    "k_yaw": 1.5,
-    "k_z": 2.0,
-    "z_nominal": NOMINAL_HEIGHT["quadruped"],
-    "hold_height": True,
-    "goal_tolerance": 0.05,
-    "resume_distance": 0.15,
-    "yaw_tolerance": 0.05,
-    "yaw_resume_tolerance": 0.15,
-    "heading_slowdown_angle": math.pi / 3.0,
-}
-#: The remaining parameters of the node.
-NODE_DEFAULTS: dict[str, object] = {
-    "rate": 50.0,
-    "odom_timeout": 0.5,
-    "diagnostics_period": 1.0,
-    "scenario": "",
-    "goal_x": math.nan,
-    "goal_y": math.nan,
-    "goal_yaw": math.nan,
-    "constant_vx": 0.0,
-    "constant_vy": 0.0,
-    "constant_vz": 0.0,
-    "constant_yaw_rate": 0.0,
-}
+# The parameter names and defaults live in a ROS-free module: scenario files are checked
+# against them when they are loaded.
+NODE_DEFAULTS = PLANNER_NODE_DEFAULTS
 GOAL_PARAMS = ("goal_x", "goal_y", "goal_yaw")
 CONSTANT_PARAMS = ("constant_vx", "constant_vy", "constant_vz", "constant_yaw_rate")
 

@@ -23,16 +23,29 @@ from typing import Any
 import yaml
 
 from safe_legged_c3bf.config import config_path
-from safe_legged_c3bf.sim.robots import ROBOTS, robot_spec
+from safe_legged_c3bf.sim.robots import robot_spec
+from safe_legged_c3bf.sim.scenario_clearance import clearance_problems, filter_params
+from safe_legged_c3bf.sim.scenario_schema import (
+    MOTION_TYPES,
+    PLANES,
+    PLANNER_FIELDS,
+    PLANNER_MODES,
+    WAYPOINT_MODES,
+    validate_document,
+)
 
 #: Default fall bounds per robot kind: minimum base height (m) and maximum tilt (rad).
 FALL_DEFAULTS = {"quadruped": (0.12, 0.8), "biped": (0.45, 0.8)}
 
-PLANES = ("vertical", "horizontal")
-MOTION_TYPES = ("static", "constant_velocity", "waypoints")
-WAYPOINT_MODES = ("pingpong", "cycle", "stop")
-PLANNER_MODES = ("goal", "constant_velocity")
+#: Sections of parameter overrides for other nodes (the planner's are in ``planner:``).
 OVERRIDE_SECTIONS = ("filter", "tracker", "controller")
+__all__ = [
+    "FALL_DEFAULTS", "MOTION_TYPES", "OVERRIDE_SECTIONS", "PLANES", "PLANNER_MODES",
+    "WAYPOINT_MODES", "GoalConfig", "GroundTruthConfig", "MotionConfig", "ObstacleConfig",
+    "PerceptionConfig", "PhysicsConfig", "PlannerConfig", "RobotConfig", "Scenario",
+    "ScenarioError", "available_scenarios", "load_scenario", "parse_scenario",
+    "resolve_scenario", "scenarios_dir",
+]
 
 
 class ScenarioError(ValueError):
@@ -259,395 +272,97 @@ class Scenario:
 # --------------------------------------------------------------------------- validation
 
 
-class _Reader:
-    """Typed access to a mapping that raises ScenarioError naming the field path."""
-
-    def __init__(self, data: Any, path: str) -> None:
-        if not isinstance(data, Mapping):
-            raise ScenarioError(f"{path or 'scenario'}: must be a mapping")
-        self.data = dict(data)
-        self.path = path
-        self.used: set[str] = set()
-
-    def name(self, key: str) -> str:
-        return f"{self.path}.{key}" if self.path else key
-
-    def fail(self, key: str, message: str) -> None:
-        raise ScenarioError(f"{self.name(key)}: {message}")
-
-    def has(self, key: str) -> bool:
-        return key in self.data and self.data[key] is not None
-
-    def raw(self, key: str, default: Any = None) -> Any:
-        self.used.add(key)
-        value = self.data.get(key, default)
-        return default if value is None else value
-
-    def number(
-        self,
-        key: str,
-        default: float | None = None,
-        *,
-        minimum: float | None = None,
-        maximum: float | None = None,
-        positive: bool = False,
-        required: bool = False,
-        allow_inf: bool = False,
-    ) -> float:
-        if required and not self.has(key):
-            self.fail(key, "is required")
-        value = self.raw(key, default)
-        x = _as_number(value, allow_inf)
-        if x is None:
-            self.fail(key, f"must be a number, got {value!r}")
-        if positive and not x > 0:
-            self.fail(key, f"must be a positive number, got {value!r}")
-        if minimum is not None and x < minimum:
-            self.fail(key, f"must be >= {minimum}, got {value!r}")
-        if maximum is not None and x > maximum:
-            self.fail(key, f"must be <= {maximum}, got {value!r}")
-        return x
-
-    def integer(self, key: str, default: int, *, minimum: int | None = None) -> int:
-        value = self.raw(key, default)
-        if isinstance(value, bool) or not isinstance(value, int):
-            self.fail(key, f"must be an integer, got {value!r}")
-        if minimum is not None and value < minimum:
-            self.fail(key, f"must be >= {minimum}, got {value!r}")
-        return int(value)
-
-    def string(self, key: str, default: str | None = None, *, choices=None) -> str:
-        if default is None and not self.has(key):
-            self.fail(key, "is required")
-        value = self.raw(key, default)
-        if not isinstance(value, str) or (choices is None and not value.strip()):
-            self.fail(key, f"must be a non-empty string, got {value!r}")
-        if choices is not None and value not in choices:
-            self.fail(key, f"must be one of {', '.join(choices)}; got {value!r}")
-        return value
-
-    def boolean(self, key: str, default: bool) -> bool:
-        value = self.raw(key, default)
-        if not isinstance(value, bool):
-            self.fail(key, f"must be true or false, got {value!r}")
-        return value
-
-    def vector(
-        self,
-        key: str,
-        sizes: tuple[int, ...],
-        default: Any = None,
-        *,
-        what: str | None = None,
-        positive: bool = False,
-        non_negative: bool = False,
-        required: bool = False,
-    ) -> tuple[float, ...]:
-        if required and not self.has(key):
-            self.fail(key, "is required")
-        value = self.raw(key, default)
-        vec = _as_vector(value, sizes)
-        ok = vec is not None
-        if ok and positive:
-            ok = all(v > 0 for v in vec)
-        if ok and non_negative:
-            ok = all(v >= 0 for v in vec)
-        if not ok:
-            self.fail(key, what or _vector_message(sizes, positive, non_negative, value))
-        return vec
-
-    def section(self, key: str) -> _Reader:
-        self.used.add(key)
-        return _Reader(self.data.get(key) or {}, self.name(key))
-
-    def reject_unknown(self, allowed: tuple[str, ...] | None = None) -> None:
-        known = set(allowed) if allowed is not None else self.used
-        for key in self.data:
-            if key not in known:
-                raise ScenarioError(
-                    f"{self.name(str(key))}: unknown field (expected one of "
-                    f"{', '.join(sorted(known))})"
-                )
-
-
-def _as_number(value: Any, allow_inf: bool = False) -> float | None:
-    if isinstance(value, bool):
-        return None
-    if isinstance(value, str) and allow_inf and value.strip().lower() in ("inf", ".inf"):
-        return math.inf
-    if not isinstance(value, int | float):
-        return None
-    x = float(value)
-    if math.isnan(x) or (math.isinf(x) and not allow_inf):
-        return None
-    return x
-
-
-def _as_vector(value: Any, sizes: tuple[int, ...]) -> tuple[float, ...] | None:
-    if not isinstance(value, list | tuple) or len(value) not in sizes:
-        return None
-    out = []
-    for v in value:
-        x = _as_number(v)
-        if x is None:
-            return None
-        out.append(x)
-    return tuple(out)
-
-
-def _vector_message(sizes, positive, non_negative, value) -> str:
-    count = " or ".join(str(s) for s in sizes)
-    kind = "positive numbers" if positive else "non-negative numbers" if non_negative else "numbers"
-    return f"must be a list of {count} {kind}, got {value!r}"
-
-
-def _scalar_or_xyz(reader: _Reader, key: str, default: float) -> tuple[float, float, float]:
-    value = reader.raw(key, default)
-    if isinstance(value, list | tuple):
-        vec = _as_vector(value, (3,))
-        if vec is None:
-            reader.fail(key, f"must be a number or a list of 3 numbers (x, y, z), got {value!r}")
-        return vec  # type: ignore[return-value]
-    x = _as_number(value)
-    if x is None:
-        reader.fail(key, f"must be a number or a list of 3 numbers (x, y, z), got {value!r}")
-    return (x, x, x)
-
-
-def _override_value_ok(value: Any) -> bool:
-    if isinstance(value, bool | int | float | str):
-        return not (isinstance(value, float) and math.isnan(value))
-    if isinstance(value, list):
-        return all(isinstance(v, bool | int | float | str) for v in value)
-    return False
-
-
-def _overrides(reader: _Reader, key: str) -> dict[str, Any]:
-    section = reader.raw(key, {})
-    if not isinstance(section, Mapping):
-        reader.fail(key, "must be a mapping of parameter names to values")
-    out = {}
-    for name, value in section.items():
-        if not isinstance(name, str) or not name:
-            reader.fail(key, f"parameter names must be strings, got {name!r}")
-        if not _override_value_ok(value):
-            raise ScenarioError(
-                f"{reader.name(key)}.{name}: must be a number, boolean, string or a list of "
-                f"them, got {value!r}"
-            )
-        out[name] = value
-    return out
-
-
-def _parse_robot(r: _Reader) -> RobotConfig:
-    model = r.string("kind", "quadruped", choices=tuple(sorted(ROBOTS)))
-    pos = r.vector("position", (2,), (0.0, 0.0))
-    yaw = r.number("yaw", 0.0)
-    r.reject_unknown(("kind", "position", "yaw"))
-    return RobotConfig(model=model, kind=robot_spec(model).kind, position=pos, yaw=yaw)
-
-
-def _parse_goal(r: _Reader, robot: RobotConfig) -> GoalConfig:
-    pos = r.vector("position", (2,), robot.position)
-    tol = r.number("tolerance", 0.3, positive=True)
-    r.reject_unknown(("position", "tolerance"))
-    return GoalConfig(position=pos, tolerance=tol)
-
-
-def _parse_perception(r: _Reader) -> PerceptionConfig:
-    rate = r.number("rate", 20.0, positive=True)
-    std = _scalar_or_xyz(r, "position_noise_std", 0.02)
-    if any(s < 0 for s in std):
-        r.fail("position_noise_std", "must be non-negative")
-    bias = _scalar_or_xyz(r, "position_noise_bias", 0.0)
-    size_std = r.number("size_noise_std", 0.0, minimum=0.0)
-    drop = r.number("dropout_probability", 0.0, minimum=0.0, maximum=1.0)
-    max_range = r.number("max_range", math.inf, positive=True, allow_inf=True)
-    r.reject_unknown()
-    return PerceptionConfig(rate, std, bias, size_std, drop, max_range)
-
-
-def _parse_motion(r: _Reader, start: tuple[float, float, float]) -> MotionConfig:
-    kind = r.string("type", "static", choices=MOTION_TYPES)
-    start_time = r.number("start_time", 0.0, minimum=0.0)
-    if kind == "static":
-        r.reject_unknown(("type", "start_time"))
-        return MotionConfig(type=kind, start_time=start_time)
-    if kind == "constant_velocity":
-        v = r.vector("velocity", (2, 3), required=True)
-        r.reject_unknown(("type", "start_time", "velocity"))
-        vel = (v[0], v[1], v[2] if len(v) == 3 else 0.0)
-        return MotionConfig(type=kind, velocity=vel, start_time=start_time)
-    # waypoints
-    raw = r.raw("waypoints")
-    if not isinstance(raw, list) or not raw:
-        r.fail("waypoints", "must be a non-empty list of [x, y] or [x, y, z] points")
-    points = []
-    previous = start
-    for i, p in enumerate(raw):
-        vec = _as_vector(p, (2, 3))
-        if vec is None:
-            raise ScenarioError(
-                f"{r.name('waypoints')}[{i}]: must be [x, y] or [x, y, z] numbers, got {p!r}"
-            )
-        point = (vec[0], vec[1], vec[2] if len(vec) == 3 else start[2])
-        if math.dist(point, previous) < 1e-6:
-            raise ScenarioError(
-                f"{r.name('waypoints')}[{i}]: must differ from the previous point "
-                "(the obstacle's position for the first waypoint)"
-            )
-        points.append(point)
-        previous = point
-    speed = r.number("speed", required=True, positive=True)
-    mode = r.string("mode", "pingpong", choices=WAYPOINT_MODES)
-    r.reject_unknown(("type", "start_time", "waypoints", "speed", "mode"))
-    if mode == "cycle" and math.dist(points[-1], start) < 1e-6:
-        r.fail("waypoints", "in cycle mode the last waypoint must not repeat the start position")
-    return MotionConfig(
-        type=kind, waypoints=tuple(points), speed=speed, mode=mode, start_time=start_time
-    )
-
-
-def _parse_obstacle(r: _Reader, index: int) -> ObstacleConfig:
-    obstacle_id = r.raw("id", f"obstacle_{index}")
-    if not isinstance(obstacle_id, str | int) or isinstance(obstacle_id, bool):
-        r.fail("id", f"must be a string, got {obstacle_id!r}")
-    obstacle_id = str(obstacle_id)
-    plane = r.string("plane", "vertical", choices=PLANES)
-    axes = r.vector(
-        "semi_axes", (2,), required=True, positive=True, what="must be two positive numbers"
-    )
-    extent = r.number("extent", 1.5 if plane == "vertical" else 4.0, positive=True)
-    orientation = r.number("orientation", 0.0)
-    if plane == "vertical":
-        p = r.vector("position", (2, 3), required=True)
-        position = (p[0], p[1], p[2] if len(p) == 3 else extent / 2.0)
-    else:
-        p = r.vector(
-            "position", (3,), required=True,
-            what="must be [x, y, z] (x, middle of the bar along y, height of the bar axis)",
-        )
-        position = p
-        if position[2] <= 0:
-            r.fail("position", "the bar's height z must be positive")
-    color = r.vector("color", (3, 4), (0.8, 0.3, 0.2, 1.0), non_negative=True)
-    if len(color) == 3:
-        color = (*color, 1.0)
-    motion = _parse_motion(r.section("motion"), position)
-    r.reject_unknown(
-        ("id", "plane", "semi_axes", "extent", "orientation", "position", "color", "motion")
-    )
-    return ObstacleConfig(
-        id=obstacle_id,
-        plane=plane,
-        position=position,
-        semi_axes=axes,
-        orientation=orientation,
-        extent=extent,
-        color=color,
-        motion=motion,
-    )
-
-
-def _parse_planner(r: _Reader) -> PlannerConfig:
-    mode = r.string("mode", "goal", choices=PLANNER_MODES)
-    speed = r.number("speed", positive=True) if r.has("speed") else None
-    if mode == "constant_velocity" and not r.has("velocity"):
-        r.fail("velocity", "is required in constant_velocity mode ([vx, vy, vz, yaw_rate])")
-    v = r.vector(
-        "velocity", (1, 2, 3, 4), (0.0,),
-        what="must be a list of 1 to 4 numbers: vx, vy, vz, yaw_rate (m/s, rad/s)",
-    )
-    velocity = tuple(v) + (0.0,) * (4 - len(v))
-    params = {k: v for k, v in r.data.items() if k not in ("mode", "speed", "velocity")}
-    for name, value in params.items():
-        if not _override_value_ok(value):
-            raise ScenarioError(
-                f"{r.name(str(name))}: must be a number, boolean, string or a list of them, "
-                f"got {value!r}"
-            )
-    return PlannerConfig(mode=mode, speed=speed, velocity=velocity, params=params)
-
-
-def _parse_ground_truth(r: _Reader, kind: str) -> GroundTruthConfig:
-    min_height, max_tilt = FALL_DEFAULTS[kind]
-    cfg = GroundTruthConfig(
-        fall_min_height=r.number("fall_min_height", min_height, minimum=0.0),
-        fall_max_tilt=r.number("fall_max_tilt", max_tilt, positive=True, maximum=math.pi),
-        collision_debounce=r.number("collision_debounce", 0.1, minimum=0.0),
-        contact_tolerance=r.number("contact_tolerance", 0.001, minimum=0.0),
-        distance_cutoff=r.number("distance_cutoff", 1.0, positive=True),
-        exact_distance_below=r.number("exact_distance_below", 0.3, minimum=0.0),
-        max_closing_speed=r.number("max_closing_speed", 4.0, positive=True),
-        max_check_interval=r.number("max_check_interval", 0.02, positive=True),
-    )
-    r.reject_unknown()
-    return cfg
-
-
-def _parse_physics(r: _Reader) -> PhysicsConfig:
-    cfg = PhysicsConfig(
-        lateral_friction=r.number("lateral_friction", 1.0, positive=True),
-        gravity=r.number("gravity", 9.81, positive=True),
-    )
-    r.reject_unknown()
-    return cfg
-
-
-TOP_LEVEL = (
-    "name", "description", "robot", "goal", "duration", "seed", "perception", "obstacles",
-    "planner", "ground_truth", "physics", *OVERRIDE_SECTIONS,
-)
-
-
-def parse_scenario(data: Any, name: str = "scenario", source: str = "") -> Scenario:
-    """Validate a scenario mapping (as loaded from YAML) and return a :class:`Scenario`.
-
-    Raises:
-        ScenarioError: naming the first bad field.
-
-    """
-    top = _Reader(data, "")
-    top.reject_unknown(TOP_LEVEL)
-    name = top.string("name", name)
-    description = top.raw("description", "")
-    if not isinstance(description, str):
-        top.fail("description", "must be a string")
-    robot = _parse_robot(top.section("robot"))
-    goal = _parse_goal(top.section("goal"), robot)
-    duration = top.number("duration", 30.0, positive=True)
-    seed = top.integer("seed", 0, minimum=0)
-    perception = _parse_perception(top.section("perception"))
-    raw_obstacles = top.raw("obstacles", [])
-    if not isinstance(raw_obstacles, list):
-        top.fail("obstacles", "must be a list")
+def _build(doc: Any, name: str, source: str) -> Scenario:
+    """The dataclasses of a validated document (see :mod:`.scenario_schema`)."""
+    r = doc.robot
+    robot = RobotConfig(model=r.kind, kind=robot_spec(r.kind).kind, position=r.position,
+                        yaw=r.yaw)
+    goal = GoalConfig(position=doc.goal.position or robot.position,
+                      tolerance=doc.goal.tolerance)
+    pe = doc.perception
+    perception = PerceptionConfig(pe.rate, pe.position_noise_std, pe.position_noise_bias,
+                                  pe.size_noise_std, pe.dropout_probability, pe.max_range)
     obstacles = []
     seen: set[str] = set()
-    for i, item in enumerate(raw_obstacles):
-        obs = _parse_obstacle(_Reader(item, f"obstacles[{i}]"), i)
-        if obs.id in seen:
-            raise ScenarioError(f"obstacles[{i}].id: duplicate id {obs.id!r}")
-        seen.add(obs.id)
-        obstacles.append(obs)
-    planner = _parse_planner(top.section("planner"))
-    ground_truth = _parse_ground_truth(top.section("ground_truth"), robot.kind)
-    physics = _parse_physics(top.section("physics"))
-    overrides = {key: _overrides(top, key) for key in OVERRIDE_SECTIONS if top.has(key)}
-    return Scenario(
-        name=name,
-        description=description,
-        robot=robot,
-        goal=goal,
-        duration=duration,
-        seed=seed,
-        perception=perception,
-        obstacles=tuple(obstacles),
-        planner=planner,
-        ground_truth=ground_truth,
-        physics=physics,
-        overrides=overrides,
-        source=source,
+    for i, o in enumerate(doc.obstacles):
+        obstacle_id = o.id if o.id is not None else f"obstacle_{i}"
+        if obstacle_id in seen:
+            raise ScenarioError(f"obstacles[{i}].id: duplicate id {obstacle_id!r}")
+        seen.add(obstacle_id)
+        m = o.motion
+        velocity = (0.0, 0.0, 0.0)
+        if m.type == "constant_velocity":
+            velocity = (m.velocity[0], m.velocity[1], m.velocity[2] if len(m.velocity) == 3
+                        else 0.0)
+        motion = MotionConfig(type=m.type, velocity=velocity, waypoints=o.waypoints(),
+                              speed=m.speed or 0.0, mode=m.mode, start_time=m.start_time)
+        color = o.color if len(o.color) == 4 else (*o.color, 1.0)
+        obstacles.append(ObstacleConfig(
+            id=obstacle_id, plane=o.plane, position=o.start_position(), semi_axes=o.semi_axes,
+            orientation=o.orientation, extent=o.extent_or_default(), color=color, motion=motion,
+        ))
+    pl = doc.planner
+    velocity = tuple(pl.velocity or (0.0,))
+    params = {k: v for k, v in pl.given().items() if k not in PLANNER_FIELDS}
+    planner = PlannerConfig(mode=pl.mode, speed=pl.speed,
+                            velocity=velocity + (0.0,) * (4 - len(velocity)), params=params)
+    gt = doc.ground_truth
+    min_height, max_tilt = FALL_DEFAULTS[robot.kind]
+    ground_truth = GroundTruthConfig(
+        fall_min_height=min_height if gt.fall_min_height is None else gt.fall_min_height,
+        fall_max_tilt=max_tilt if gt.fall_max_tilt is None else gt.fall_max_tilt,
+        collision_debounce=gt.collision_debounce, contact_tolerance=gt.contact_tolerance,
+        distance_cutoff=gt.distance_cutoff, exact_distance_below=gt.exact_distance_below,
+        max_closing_speed=gt.max_closing_speed, max_check_interval=gt.max_check_interval,
     )
+    physics = PhysicsConfig(lateral_friction=doc.physics.lateral_friction,
+                            gravity=doc.physics.gravity)
+    overrides = {
+        key: getattr(doc, key).given() for key in OVERRIDE_SECTIONS
+        if getattr(doc, key) is not None
+    }
+    return Scenario(
+        name=doc.name or name, description=doc.description, robot=robot, goal=goal,
+        duration=doc.duration, seed=doc.seed, perception=perception,
+        obstacles=tuple(obstacles), planner=planner, ground_truth=ground_truth,
+        physics=physics, overrides=overrides, source=source,
+    )
+
+
+def parse_scenario(
+    data: Any, name: str = "scenario", source: str = "", *, check_clearance: bool = False
+) -> Scenario:
+    """Validate a scenario mapping (as loaded from YAML) and return a :class:`Scenario`.
+
+    Checks, in this order: the structure and every value (unknown keys first, then missing
+    and invalid ones, all of them; override keys against the nodes' real parameter names);
+    the safety filter's parameters with the scenario's ``filter:`` overrides applied; with
+    ``check_clearance`` (always done by :func:`load_scenario`), that neither the start nor the
+    goal is inside an obstacle as the filter inflates it (:mod:`.scenario_clearance`). Code
+    may leave that last check out, e.g. to put an obstacle right at the robot in a simulator
+    test; a scenario file never can.
+
+    Raises:
+        ScenarioError: one line per problem, each naming the field.
+
+    """
+    if data is None or (isinstance(data, Mapping) and not data):
+        raise ScenarioError(
+            "scenario: is empty; a scenario needs at least its goal (and its obstacles), "
+            "see doc/scenario_format.md"
+        )
+    doc, errors = validate_document(data)
+    if errors:
+        raise ScenarioError("\n".join(errors))
+    scenario = _build(doc, name, source)
+    try:
+        params = filter_params(scenario)
+    except ValueError as err:
+        raise ScenarioError(f"filter.{err}" if ":" in str(err) else f"filter: {err}") from None
+    problems = clearance_problems(scenario, params) if check_clearance else []
+    if problems:
+        raise ScenarioError("\n".join(problems))
+    return scenario
 
 
 # --------------------------------------------------------------------------- lookup and loading
@@ -707,9 +422,13 @@ def load_scenario(name_or_path: str | os.PathLike[str] | Scenario) -> Scenario:
             data = yaml.safe_load(f)
     except (OSError, yaml.YAMLError) as exc:
         raise ScenarioError(f"{path}: cannot read scenario: {exc}") from None
-    if data is None:
-        data = {}
+    if data is None or data == {}:
+        raise ScenarioError(
+            f"{path}: the file is empty; a scenario needs at least its goal (and its "
+            "obstacles), see doc/scenario_format.md"
+        )
     try:
-        return parse_scenario(data, name=path.stem, source=str(path))
+        return parse_scenario(data, name=path.stem, source=str(path), check_clearance=True)
     except ScenarioError as exc:
-        raise ScenarioError(f"{path}: {exc}") from None
+        lines = str(exc).splitlines()
+        raise ScenarioError("\n".join(f"{path}: {line}" for line in lines)) from None

@@ -1,0 +1,138 @@
+"""The parameters each graph node declares, without importing ROS.
+
+A scenario's ``filter:``, ``tracker:``, ``controller:`` and ``planner:`` sections are
+parameter overrides of the safety filter, obstacle tracker, gait controller and reference
+planner nodes (the bringup hands them over). rclpy ignores an override of a parameter a node
+never declared, so a misspelt key would silently do nothing: :mod:`safe_legged_c3bf.sim.scenario`
+checks the keys against the names listed here when the file is loaded.
+
+Where the names come from:
+
+* safety filter: the fields of :class:`~safe_legged_c3bf.filtering.params.FilterParams`
+  (the node declares exactly these);
+* obstacle tracker: the fields of ``TrackerConfig`` (except the nested ``track``) and of
+  ``TrackConfig``, plus :data:`TRACKER_NODE_DEFAULTS` (the node's own parameters, which the
+  tracker node imports from here);
+* reference planner: :data:`PLANNER_DEFAULTS` and :data:`PLANNER_NODE_DEFAULTS`, which the
+  planner node imports from here;
+* gait controller: :data:`CONTROLLER_DEFAULTS`, which the gait controller node imports from
+  here (its gait parameters come from its ``controller_config`` file, not from parameters).
+
+``use_sim_time`` is left out on purpose: every node of the graph must run on sim time.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict
+
+#: Body height (m, odom z of base_link) the reference planner holds, per robot kind.
+NOMINAL_HEIGHT = {"quadruped": 0.28, "biped": 0.82}
+
+#: Reference planner parameters mapped onto PlannerConfig fields (same names), with defaults.
+PLANNER_DEFAULTS: dict[str, object] = {
+    "mode": "goal",
+    "max_vx": 0.5,
+    "max_vx_backward": 0.25,
+    "max_vy": 0.3,
+    "max_vz": 0.2,
+    "max_yaw_rate": 1.0,
+    "max_linear_accel": 0.0,
+    "max_yaw_accel": 0.0,
+    "k_speed": 0.8,
+    "k_heading": 2.0,
+    "k_yaw": 1.5,
+    "k_z": 2.0,
+    "z_nominal": NOMINAL_HEIGHT["quadruped"],
+    "hold_height": True,
+    "goal_tolerance": 0.05,
+    "resume_distance": 0.15,
+    "yaw_tolerance": 0.05,
+    "yaw_resume_tolerance": 0.15,
+    "heading_slowdown_angle": math.pi / 3.0,
+}
+#: The reference planner's remaining parameters, with defaults.
+PLANNER_NODE_DEFAULTS: dict[str, object] = {
+    "rate": 50.0,
+    "odom_timeout": 0.5,
+    "diagnostics_period": 1.0,
+    "scenario": "",
+    "goal_x": math.nan,
+    "goal_y": math.nan,
+    "goal_yaw": math.nan,
+    "constant_vx": 0.0,
+    "constant_vy": 0.0,
+    "constant_vz": 0.0,
+    "constant_yaw_rate": 0.0,
+}
+
+#: The obstacle tracker node's parameters that are not tracker configuration, with defaults
+#: (the node imports them from here as ``obstacle_tracker_node.NODE_DEFAULTS``).
+TRACKER_NODE_DEFAULTS: dict[str, object] = {
+    "rate": 30.0,
+    "marker_rate": 10.0,
+    "marker_inflation": 0.15,
+    "detections_timeout": 0.5,
+    "diagnostics_period": 1.0,
+    "publish_unestimated_velocity": False,
+    "max_future_stamp": 0.1,
+    "max_message_bytes": 262144,
+}
+
+#: The gait controller node's parameters, with defaults.
+CONTROLLER_DEFAULTS: dict[str, object] = {
+    "robot": "quadruped",
+    "command_timeout": 0.5,
+    "controller_config": "",
+    "diagnostics_period": 1.0,
+    "max_future_stamp": 0.1,
+}
+
+#: Scenario override section -> the node that receives it.
+OVERRIDE_NODES = {
+    "filter": "safety_filter",
+    "tracker": "obstacle_tracker",
+    "controller": "gait_controller",
+    "planner": "reference_planner",
+}
+
+
+#: Sections whose node declares its floating-point parameters without dynamic typing: rclpy
+#: refuses an integer there (``gamma: 1`` instead of ``1.0``) and the node fails to start.
+STRICT_DOUBLE_SECTIONS = frozenset({"filter", "controller"})
+
+
+def filter_parameter_defaults() -> dict[str, object]:
+    """The safety filter node's parameters: the fields of FilterParams, with defaults."""
+    from safe_legged_c3bf.filtering.params import FilterParams
+
+    return asdict(FilterParams())
+
+
+def tracker_parameter_defaults() -> dict[str, object]:
+    """The obstacle tracker node's parameters: node extras, tracker and track configuration."""
+    from safe_legged_c3bf.tracking import TrackConfig, TrackerConfig
+
+    config = asdict(TrackerConfig())
+    config.pop("track")
+    return {**TRACKER_NODE_DEFAULTS, **config, **asdict(TrackConfig())}
+
+
+def planner_parameter_defaults() -> dict[str, object]:
+    """The reference planner node's parameters, with defaults."""
+    return {**PLANNER_NODE_DEFAULTS, **PLANNER_DEFAULTS}
+
+
+def controller_parameter_defaults() -> dict[str, object]:
+    """The gait controller node's parameters, with defaults."""
+    return dict(CONTROLLER_DEFAULTS)
+
+
+def override_parameter_defaults(section: str) -> dict[str, object]:
+    """Parameters (name -> default) a scenario's ``section`` ('filter', ...) may override."""
+    return {
+        "filter": filter_parameter_defaults,
+        "tracker": tracker_parameter_defaults,
+        "controller": controller_parameter_defaults,
+        "planner": planner_parameter_defaults,
+    }[section]()

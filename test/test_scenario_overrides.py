@@ -1,0 +1,82 @@
+"""Scenario override sections are checked against the nodes' real parameters (issue #14)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from safe_legged_c3bf import node_parameters as np_
+from safe_legged_c3bf.sim.scenario import ScenarioError, parse_scenario
+
+REPO = Path(__file__).resolve().parents[1]
+BASE = {"goal": {"position": [3.0, 0.0]}, "duration": 1.0}
+
+
+def _parse(section, values):
+    return parse_scenario(dict(BASE, **{section: values}))
+
+
+def test_scenario_module_does_not_import_ros():
+    code = ("import sys, safe_legged_c3bf.sim.scenario as s; s.parse_scenario("
+            "{'goal': {'position': [1.0, 0.0]}, 'filter': {'gamma': 2.0}}); "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in "
+            "('rclpy', 'rcl_interfaces')))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True,
+                         check=True, env={"PYTHONPATH": str(REPO)}).stdout
+    assert out.strip().splitlines()[-1] == "[]"
+
+
+def test_lists_match_the_nodes():
+    pytest.importorskip("rclpy")
+    from safe_legged_c3bf.nodes import obstacle_tracker_node, reference_planner_node
+
+    assert np_.TRACKER_NODE_DEFAULTS == obstacle_tracker_node.NODE_DEFAULTS
+    assert _same(np_.tracker_parameter_defaults(), obstacle_tracker_node.parameter_defaults())
+    assert _same(np_.planner_parameter_defaults(), reference_planner_node.parameter_defaults())
+
+
+def _same(a, b):
+    """Equal dicts, NaN equal to NaN."""
+    nan = {k for k in a if a[k] != a[k] and b.get(k) != b.get(k)}
+    return a.keys() == b.keys() and all(a[k] == b[k] for k in a.keys() - nan)
+
+
+def test_gait_controller_declares_the_listed_parameters():
+    source = (REPO / "safe_legged_c3bf" / "nodes" / "gait_controller_node.py").read_text()
+    assert "for name, default in CONTROLLER_DEFAULTS.items():" in source
+    assert source.count("declare_parameter(") == 1
+
+
+@pytest.mark.parametrize(
+    ("section", "values", "message"),
+    [
+        # rclpy refuses an integer for a double of the filter / gait controller node.
+        ("filter", {"gamma": 1}, "filter.gamma: must be a floating-point number, got 1 (write 1.0"),
+        ("filter", {"weights": [1, 0.2, 0.5]}, "filter.weights: must be a list of floating-point"),
+        ("filter", {"enabled": "false"}, "filter.enabled: must be true or false"),
+        ("filter", {"model": 2.0}, "filter.model: must be a string"),
+        ("controller", {"command_timeout": 1}, "controller.command_timeout: must be a floating"),
+        ("tracker", {"confirm_hits": 2.5}, "tracker.confirm_hits: must be an integer"),
+        ("planner", {"k_z": "fast"}, "planner.k_z: must be a number"),
+        # Values the node itself would refuse at start-up, for the filter (FilterParams).
+        ("filter", {"gamma": -1.0}, "filter.gamma: must be a finite number > 0"),
+        ("filter", {"min_height": 0.4, "max_height": 0.3}, "filter.min_height/max_height"),
+        # The planner's scenario parameter is the bringup's.
+        ("planner", {"scenario": "other"}, "planner.scenario: unknown key 'scenario'"),
+    ],
+)
+def test_override_values_are_typed_like_the_nodes_parameters(section, values, message):
+    with pytest.raises(ScenarioError) as err:
+        _parse(section, values)
+    assert message in str(err.value)
+
+
+def test_integers_where_the_node_accepts_them():
+    # The tracker and planner declare their numbers with dynamic typing.
+    sc = parse_scenario(dict(BASE, tracker={"rate": 20, "confirm_hits": 2},
+                             planner={"max_vx": 1}))
+    assert sc.overrides["tracker"] == {"rate": 20, "confirm_hits": 2}
+    assert sc.planner.params == {"max_vx": 1}
