@@ -41,13 +41,13 @@ from safe_legged_c3bf.biped.footstep_planner import (
     clamp,
     clip_to_polygon,
     convex_hull,
-    other_side,
     wrap_angle,
 )
 from safe_legged_c3bf.biped.leg_ik import rot_x, rot_y, rot_z, static_torques
 from safe_legged_c3bf.biped.lipm_preview import GRAVITY, ZmpPreviewController
-from safe_legged_c3bf.biped.model import SIDES, BipedModel
+from safe_legged_c3bf.biped.model import BipedModel
 from safe_legged_c3bf.biped.params import BipedParams
+from safe_legged_c3bf.biped.side import SIDES, Side
 from safe_legged_c3bf.biped.swing_trajectory import SwingTrajectory
 from safe_legged_c3bf.gait_controller import VelocityCommand
 from safe_legged_c3bf.joint_command import JointCommand
@@ -73,8 +73,8 @@ class _Step:
     frozen: bool = False
 
     @property
-    def swing(self) -> str:
-        return other_side(self.support.side)
+    def swing(self) -> Side:
+        return self.support.side.other
 
     @property
     def t_lift(self) -> float:
@@ -397,7 +397,7 @@ class BipedZmpController:
             if not self._wants_to_move():
                 return
             swing = self.planner.first_swing_side(self._cmd_target)
-            support = self._footstep(other_side(swing))
+            support = self._footstep(swing.other)
             zmp_now = self._stand_zmp_at(np.array([t]))[0]
             ds = gait.start_delay + gait.start_double_support
             self._step = self._new_step(support, t, ds, zmp_now)
@@ -434,7 +434,7 @@ class BipedZmpController:
 
     def _new_step(self, support: Footstep, t0: float, ds: float, zmp_start) -> _Step:
         gait = self.params.gait
-        swing = other_side(support.side)
+        swing = support.side.other
         target = self._plan_target(support)
         return _Step(
             support=support,
