@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from safe_legged_c3bf.base_state import BaseState
+from safe_legged_c3bf.biped.command_filter import CommandFilter
 from safe_legged_c3bf.biped.footstep_planner import (
     Footstep,
     FootstepPlanner,
@@ -132,6 +133,7 @@ class BipedZmpController:
         )
         self.omega = self.preview.omega
         self.planner = FootstepPlanner(gait, self.params.steps)
+        self.command = CommandFilter(self.params.command)
         self._preview_offsets = gait.control_period * np.arange(self.preview.n_preview + 1)
         g = self.params.gains
         self._kp = {"stance": g.leg_array("stance_kp"), "swing": g.leg_array("swing_kp")}
@@ -162,7 +164,7 @@ class BipedZmpController:
         """Forget all state; the next :meth:`update` re-initialises from the measurement."""
         self._initialized = False
         self._t_last: float | None = None
-        self._cmd = np.zeros(3)
+        self.command.reset()
         self._mode = "stand"
         self._step: _Step | None = None
         self._feet: dict[str, np.ndarray] = {}
@@ -173,7 +175,6 @@ class BipedZmpController:
         self._tilt = np.zeros(3)  # filtered roll, pitch and yaw of the torso
         self._pelvis_filtered: np.ndarray | None = None
         self._polygon_cache: tuple | None = None
-        self._moving = False
         self._com_prev: np.ndarray | None = None
         self._com_vel = np.zeros(3)
         self._steps_taken = 0
@@ -208,7 +209,7 @@ class BipedZmpController:
             n_ticks = int(clamp(round((t - self._t_last) / dt), 1, 10))
         self._t_last = t
 
-        self._filter_command(command, n_ticks * dt)
+        self.command.update(command, n_ticks * dt)
         meas = self._measure(base, q, n_ticks * dt)
         self._advance_gait(t, meas)
 
@@ -327,17 +328,6 @@ class BipedZmpController:
         self._mode = "stand"
         self._step = None
 
-    def _filter_command(self, command: VelocityCommand, dt: float) -> None:
-        lim = self.params.command
-        target = lim.clip(command.vx, command.vy, command.yaw_rate)
-        rates = (lim.accel_x * dt, lim.accel_y * dt, lim.accel_yaw * dt)
-        current = self._cmd.tolist()
-        self._cmd = np.array(
-            [c + clamp(float(g) - c, -r, r) for c, g, r in zip(current, target, rates, strict=True)]
-        )
-        self._cmd_target = target
-        self._moving = max(abs(float(v)) for v in (*target, *self._cmd)) > 1e-4
-
     def _measure(self, base: BaseState, q: np.ndarray, dt: float) -> dict:
         rot = base.rotation
         pos = base.position
@@ -383,9 +373,6 @@ class BipedZmpController:
         a = np.clip((times - t0) / dur, 0.0, 1.0)[:, None]
         return start + a * (end - start)
 
-    def _wants_to_move(self) -> bool:
-        return self._moving
-
     def _advance_gait(self, t: float, meas: dict) -> None:
         gait = self.params.gait
         if self._mode == "stand":
@@ -394,9 +381,9 @@ class BipedZmpController:
             self._ground_z += 0.05 * (z - self._ground_z)
             for side in SIDES:
                 self._feet[side][2] = self._ground_z
-            if not self._wants_to_move():
+            if not self.command.moving:
                 return
-            swing = self.planner.first_swing_side(self._cmd_target)
+            swing = self.planner.first_swing_side(self.command.target)
             support = self._footstep(swing.other)
             zmp_now = self._stand_zmp_at(np.array([t]))[0]
             ds = gait.start_delay + gait.start_double_support
@@ -416,7 +403,7 @@ class BipedZmpController:
         self._steps_taken += 1
         new_support = self._footstep(landed_side)
         old_support = step.support
-        if not self._wants_to_move() and self.planner.is_aligned(old_support, target):
+        if not self.command.moving and self.planner.is_aligned(old_support, target):
             self._mode = "stand"
             self._step = None
             start = self.planner.zmp_point(new_support)
@@ -447,8 +434,8 @@ class BipedZmpController:
         )
 
     def _plan_target(self, support: Footstep) -> Footstep:
-        if self._wants_to_move():
-            return self.planner.next_step(support, self._cmd)
+        if self.command.moving:
+            return self.planner.next_step(support, self.command.velocity)
         return self.planner.aligned_step(support)
 
     def _nominal_dcm_at_touchdown(self, support: Footstep, target: Footstep) -> np.ndarray:
@@ -459,8 +446,8 @@ class BipedZmpController:
         ending at the last footstep (or between the feet when stopping).
         """
         zp = self.planner.zmp_point
-        if self._wants_to_move():
-            future = [target, *self.planner.plan(target, self._cmd, 3)]
+        if self.command.moving:
+            future = [target, *self.planner.plan(target, self.command.velocity, 3)]
             xi = zp(future[-1])
         else:
             future = [target]
@@ -522,7 +509,7 @@ class BipedZmpController:
         knot_p = [step.zmp_start, step.zmp_start, zp(step.support)]
         t_end = step.t_end
         horizon_end = times[-1]
-        if not self._wants_to_move():
+        if not self.command.moving:
             # finish the current step (and one aligning step if needed), then stand
             last, prev = step.target, step.support
             if not self.planner.is_aligned(prev, last):
@@ -537,7 +524,7 @@ class BipedZmpController:
         else:
             footsteps = [step.target]
             n_more = int(np.ceil((horizon_end - t_end) / gait.step_period)) + 1
-            footsteps += self.planner.plan(step.target, self._cmd, max(n_more, 0))
+            footsteps += self.planner.plan(step.target, self.command.velocity, max(n_more, 0))
             prev = step.support
             for f in footsteps:
                 knot_t += [t_end, t_end + gait.double_support]
