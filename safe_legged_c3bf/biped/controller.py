@@ -49,6 +49,7 @@ from safe_legged_c3bf.biped.lipm_preview import GRAVITY, ZmpPreviewController
 from safe_legged_c3bf.biped.model import BipedModel
 from safe_legged_c3bf.biped.params import BipedParams
 from safe_legged_c3bf.biped.side import SIDES, Side
+from safe_legged_c3bf.biped.state_estimate import BipedEstimate, StateEstimator
 from safe_legged_c3bf.biped.swing_trajectory import SwingTrajectory
 from safe_legged_c3bf.gait_controller import VelocityCommand
 from safe_legged_c3bf.joint_command import JointCommand
@@ -134,6 +135,9 @@ class BipedZmpController:
         self.omega = self.preview.omega
         self.planner = FootstepPlanner(gait, self.params.steps)
         self.command = CommandFilter(self.params.command)
+        self.estimator = StateEstimator(
+            self.model, self.omega, self.params.feedback, self.control_period
+        )
         self._preview_offsets = gait.control_period * np.arange(self.preview.n_preview + 1)
         g = self.params.gains
         self._kp = {"stance": g.leg_array("stance_kp"), "swing": g.leg_array("swing_kp")}
@@ -172,11 +176,9 @@ class BipedZmpController:
         self._ground_z = 0.0
         self._q_des_prev: np.ndarray | None = None
         self._dq_des_prev = np.zeros(12)
-        self._tilt = np.zeros(3)  # filtered roll, pitch and yaw of the torso
         self._pelvis_filtered: np.ndarray | None = None
         self._polygon_cache: tuple | None = None
-        self._com_prev: np.ndarray | None = None
-        self._com_vel = np.zeros(3)
+        self.estimator.reset()
         self._steps_taken = 0
         self._adjust = np.zeros(2)
         self._cp_error = np.zeros(2)
@@ -210,7 +212,7 @@ class BipedZmpController:
         self._t_last = t
 
         self.command.update(command, n_ticks * dt)
-        meas = self._measure(base, q, n_ticks * dt)
+        meas = self.estimator.update(base, q, n_ticks * dt)
         self._advance_gait(t, meas)
 
         fb = self.params.feedback
@@ -225,38 +227,35 @@ class BipedZmpController:
         dcm_ref = ref[0] + ref[1] / self.omega
 
         # ---- DCM (capture point) tracking: desired ZMP, kept inside the support polygon
-        dcm_err = meas["dcm"] - dcm_ref
+        dcm_err = meas.dcm - dcm_ref
         zmp_des = zmp_model + (1.0 + fb.dcm_gain / self.omega) * dcm_err
         phase = self._phases(t)
         for side in SIDES:
             if phase[side] == "stance":  # a foot on the ground is where it is measured
-                self._feet[side][[0, 1, 3]] = meas["feet"][side][[0, 1, 3]]
+                self._feet[side][[0, 1, 3]] = meas.feet[side][[0, 1, 3]]
         zmp_cmd = clip_to_polygon(zmp_des, self._support_polygon(phase, fb.support_margin))
         # ---- stepping strategy: move the swing target by the predicted DCM error at touchdown
-        self._update_swing_target(t, meas["dcm"])
+        self._update_swing_target(t, meas.dcm)
 
         # ---- desired feet poses (odom) and the torso pose the legs are solved from
         feet, phase = self._feet_targets(t)
         yaw_des = self._torso_yaw(feet)
-        rpy = base.rpy
-        alpha = dt / (fb.tilt_filter + dt) if fb.tilt_filter > 0 else 1.0
-        self._tilt[:2] += alpha * (rpy[:2] - self._tilt[:2])
-        self._tilt[2] += alpha * wrap_angle(rpy[2] - self._tilt[2])
+        rpy = meas.rpy
         # Both legs are solved from the torso's (filtered) measured orientation, so the feet
         # stay flat and the swing foot lands where planned however the torso leans; the stance
         # hips then add offsets that turn the torso upright and to the desired heading
         # (_torso_correction). The stance hips are anchored where they really are: the CoM
         # moves by the ankle torques (ZMP), not by position servoing; the swing leg hangs
         # from a low-passed pelvis so it does not react to its own reaction torques.
-        r_ik = rot_z(self._tilt[2]) @ rot_y(self._tilt[1]) @ rot_x(self._tilt[0])
-        pelvis = meas["position"] + meas["rotation"] @ self._pelvis_offset
-        pelvis[:2] += 0.5 * n_ticks * dt * meas["com_vel"][:2]
+        r_ik = rot_z(meas.tilt[2]) @ rot_y(meas.tilt[1]) @ rot_x(meas.tilt[0])
+        pelvis = meas.position + meas.rotation @ self._pelvis_offset
+        pelvis[:2] += 0.5 * n_ticks * dt * meas.com_velocity[:2]
         if self._pelvis_filtered is None:
             self._pelvis_filtered = pelvis.copy()
         a = dt / (fb.swing_anchor_filter + dt) if fb.swing_anchor_filter > 0 else 1.0
-        self._pelvis_filtered += n_ticks * dt * meas["com_vel"] * np.array([1.0, 1.0, 0.0])
+        self._pelvis_filtered += n_ticks * dt * meas.com_velocity * np.array([1.0, 1.0, 0.0])
         self._pelvis_filtered += a * (pelvis - self._pelvis_filtered)
-        z_torso = self._ground_z + gait.com_height - (r_ik @ meas["com_local"])[2]
+        z_torso = self._ground_z + gait.com_height - (r_ik @ meas.com_local)[2]
         p_torso = pelvis - r_ik @ self._pelvis_offset
         p_torso[2] = z_torso
         p_torso_swing = self._pelvis_filtered - r_ik @ self._pelvis_offset
@@ -293,7 +292,7 @@ class BipedZmpController:
         self.status = ControllerStatus(
             mode=self._mode,
             support=self._step.support.side if self._step is not None else "",
-            com_measured=meas["com"].copy(),
+            com_measured=meas.com.copy(),
             com_reference=ref[0].copy(),
             zmp_reference=zmp_ref[0].copy(),
             zmp_desired=zmp_cmd.copy(),
@@ -316,49 +315,16 @@ class BipedZmpController:
         self._initialized = True
         self._first_tick = True
         self._t_last = t
-        meas = self._measure(base, q, 0.0)
+        meas = self.estimator.initialize(base, q)
         for side in SIDES:
-            pose = meas["feet"][side].copy()
+            pose = meas.feet[side].copy()
             self._feet[side] = pose
         self._ground_z = float(np.mean([self._feet[s][2] for s in SIDES]))
         mid = self._stand_midpoint()
         self._stand_zmp = (t, mid, mid)
-        self.preview.reset(meas["com"][:2])
-        self._tilt = base.rpy.copy()
+        self.preview.reset(meas.com[:2])
         self._mode = "stand"
         self._step = None
-
-    def _measure(self, base: BaseState, q: np.ndarray, dt: float) -> dict:
-        rot = base.rotation
-        pos = base.position
-        frames = {side: self.model.leg_frames(side, q[_LEG[side]]) for side in SIDES}
-        com_local = self.model.com_from_frames(frames)
-        com = pos + rot @ com_local
-        if self._com_prev is not None and dt > 0:
-            raw = (com - self._com_prev) / dt
-            tc = self.params.feedback.com_velocity_filter
-            alpha = dt / (tc + dt) if tc > 0 else 1.0
-            self._com_vel = self._com_vel + alpha * (raw - self._com_vel)
-        elif self._com_prev is None:
-            omega_w = base.angular_velocity_world
-            self._com_vel = base.linear_velocity_world + np.cross(omega_w, rot @ com_local)
-        self._com_prev = com.copy()
-        feet = {}
-        for side in SIDES:
-            f = frames[side]
-            p = pos + rot @ f.foot_position
-            r = rot @ f.foot_rotation
-            feet[side] = np.array([p[0], p[1], p[2], math.atan2(r[1, 0], r[0, 0])])
-        return {
-            "rotation": rot,
-            "position": pos,
-            "frames": frames,
-            "com_local": com_local,
-            "com": com,
-            "com_vel": self._com_vel.copy(),
-            "dcm": com[:2] + self._com_vel[:2] / self.omega,
-            "feet": feet,
-        }
 
     def _footstep(self, side: str) -> Footstep:
         pose = self._feet[side]
@@ -373,11 +339,11 @@ class BipedZmpController:
         a = np.clip((times - t0) / dur, 0.0, 1.0)[:, None]
         return start + a * (end - start)
 
-    def _advance_gait(self, t: float, meas: dict) -> None:
+    def _advance_gait(self, t: float, meas: BipedEstimate) -> None:
         gait = self.params.gait
         if self._mode == "stand":
             # follow the measured sole height while both feet are down (ground level in odom)
-            z = float(np.mean([meas["feet"][s][2] for s in SIDES]))
+            z = float(np.mean([meas.feet[s][2] for s in SIDES]))
             self._ground_z += 0.05 * (z - self._ground_z)
             for side in SIDES:
                 self._feet[side][2] = self._ground_z
@@ -396,7 +362,7 @@ class BipedZmpController:
             return
         # touchdown: the landed foot's measured pose becomes the new support
         landed_side = step.swing
-        landed = meas["feet"][landed_side].copy()
+        landed = meas.feet[landed_side].copy()
         target = step.target
         # keep the plan's heading/height but take the measured position and yaw
         self._feet[landed_side] = np.array([landed[0], landed[1], self._ground_z, landed[3]])
@@ -414,9 +380,9 @@ class BipedZmpController:
         # Re-anchor the reference on the real robot when it has drifted from it (a push, a
         # slip, an adjusted step): the preview then plans from the measured CoM state.
         fb = self.params.feedback
-        err = meas["dcm"] - self.preview.dcm
+        err = meas.dcm - self.preview.dcm
         if fb.reference_reset > 0.0 and math.hypot(err[0], err[1]) > fb.reference_reset:
-            com, vel = meas["com"][:2], meas["com_vel"][:2]
+            com, vel = meas.com[:2], meas.com_velocity[:2]
             self.preview.reset(com, vel, self.omega**2 * (com - zmp_start))
 
     def _new_step(self, support: Footstep, t0: float, ds: float, zmp_start) -> _Step:
@@ -647,13 +613,13 @@ class BipedZmpController:
         if scale == 0.0:
             return tau
         mass = self.model.total_mass
-        horizontal = self.omega**2 * (meas["com"][:2] - zmp_cmd)
+        horizontal = self.omega**2 * (meas.com[:2] - zmp_cmd)
         force = mass * np.array([horizontal[0], horizontal[1], GRAVITY])
         stance = [s for s in SIDES if phase[s] == "stance"]
-        rot, pos = meas["rotation"], meas["position"]
+        rot, pos = meas.rotation, meas.position
         gravity_local = rot.T @ np.array([0.0, 0.0, -GRAVITY])
         for side in SIDES:
-            frames = meas["frames"][side]
+            frames = meas.frames[side]
             tau[_LEG[side]] = self.model.leg_gravity_torques(side, frames, gravity_local)
             if phase[side] == "swing" and self.params.gains.inertia_feedforward > 0.0:
                 inertia = self.model.leg_mass_matrix(side, frames)
@@ -678,7 +644,7 @@ class BipedZmpController:
             cop = np.array([cops[side][0], cops[side][1], feet[side][2]])
             f_local = rot.T @ (shares[side] * force)
             cop_local = rot.T @ (cop - pos)
-            tau[_LEG[side]] += static_torques(meas["frames"][side], f_local, cop_local)
+            tau[_LEG[side]] += static_torques(meas.frames[side], f_local, cop_local)
         return scale * tau
 
     def _clip_to_foot(self, side: str, pose: np.ndarray, point: np.ndarray, margin: float):
