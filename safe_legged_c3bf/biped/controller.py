@@ -44,6 +44,7 @@ from safe_legged_c3bf.biped.footstep_planner import (
     convex_hull,
     wrap_angle,
 )
+from safe_legged_c3bf.biped.gait_schedule import GaitMode, GaitSchedule, LegPhase
 from safe_legged_c3bf.biped.leg_ik import rot_x, rot_y, rot_z, static_torques
 from safe_legged_c3bf.biped.lipm_preview import GRAVITY, ZmpPreviewController
 from safe_legged_c3bf.biped.model import BipedModel
@@ -60,40 +61,12 @@ DEFAULT_CONFIG = "biped_controller.yaml"
 
 
 @dataclass
-class _Step:
-    """One step of the walk: double support on both feet, then ``swing`` in the air."""
-
-    support: Footstep
-    swing_start: np.ndarray  # (x, y, z, yaw) of the swing foot at the start of the step
-    target: Footstep
-    t_start: float
-    double_support: float
-    single_support: float
-    zmp_start: np.ndarray
-    hold: float = 0.0  # time at the start of the double support the ZMP stays at zmp_start
-    trajectory: SwingTrajectory | None = None
-    frozen: bool = False
-
-    @property
-    def swing(self) -> Side:
-        return self.support.side.other
-
-    @property
-    def t_lift(self) -> float:
-        return self.t_start + self.double_support
-
-    @property
-    def t_end(self) -> float:
-        return self.t_lift + self.single_support
-
-
-@dataclass
 class ControllerStatus:
     """Diagnostics of the last tick (for logging and tests).
 
     Attributes:
-        mode: 'stand' or 'walk'.
-        support: side of the support foot while walking ('' when standing).
+        mode: standing or walking.
+        support: the support foot while walking (None when standing).
         com_measured: (3,) CoM in odom.
         com_reference: (2,) preview CoM.
         zmp_reference: (2,) preview ZMP reference at this tick.
@@ -104,8 +77,8 @@ class ControllerStatus:
 
     """
 
-    mode: str = "stand"
-    support: str = ""
+    mode: GaitMode = GaitMode.STAND
+    support: Side | None = None
     com_measured: np.ndarray | None = None
     com_reference: np.ndarray | None = None
     zmp_reference: np.ndarray | None = None
@@ -135,6 +108,7 @@ class BipedZmpController:
         self.omega = self.preview.omega
         self.planner = FootstepPlanner(gait, self.params.steps)
         self.command = CommandFilter(self.params.command)
+        self.schedule = GaitSchedule(gait, self.planner)
         self.estimator = StateEstimator(
             self.model, self.omega, self.params.feedback, self.control_period
         )
@@ -169,24 +143,19 @@ class BipedZmpController:
         self._initialized = False
         self._t_last: float | None = None
         self.command.reset()
-        self._mode = "stand"
-        self._step: _Step | None = None
-        self._feet: dict[str, np.ndarray] = {}
-        self._stand_zmp = (0.0, np.zeros(2), np.zeros(2))
-        self._ground_z = 0.0
+        self.schedule.reset()
         self._q_des_prev: np.ndarray | None = None
         self._dq_des_prev = np.zeros(12)
         self._pelvis_filtered: np.ndarray | None = None
         self._polygon_cache: tuple | None = None
         self.estimator.reset()
-        self._steps_taken = 0
         self._adjust = np.zeros(2)
         self._cp_error = np.zeros(2)
 
     @property
-    def mode(self) -> str:
-        """'stand' or 'walk'."""
-        return self._mode
+    def mode(self) -> GaitMode:
+        """Standing or walking (a StrEnum: equal to 'stand' or 'walk')."""
+        return self.schedule.mode
 
     def update(
         self,
@@ -213,7 +182,8 @@ class BipedZmpController:
 
         self.command.update(command, n_ticks * dt)
         meas = self.estimator.update(base, q, n_ticks * dt)
-        self._advance_gait(t, meas)
+        if self.schedule.advance(t, meas.feet, self.command):
+            self._reanchor(meas)
 
         fb = self.params.feedback
         gait = self.params.gait
@@ -229,10 +199,8 @@ class BipedZmpController:
         # ---- DCM (capture point) tracking: desired ZMP, kept inside the support polygon
         dcm_err = meas.dcm - dcm_ref
         zmp_des = zmp_model + (1.0 + fb.dcm_gain / self.omega) * dcm_err
-        phase = self._phases(t)
-        for side in SIDES:
-            if phase[side] == "stance":  # a foot on the ground is where it is measured
-                self._feet[side][[0, 1, 3]] = meas.feet[side][[0, 1, 3]]
+        phase = self.schedule.phases(t)
+        self.schedule.track_stance_feet(phase, meas.feet)
         zmp_cmd = clip_to_polygon(zmp_des, self._support_polygon(phase, fb.support_margin))
         # ---- stepping strategy: move the swing target by the predicted DCM error at touchdown
         self._update_swing_target(t, meas.dcm)
@@ -255,7 +223,7 @@ class BipedZmpController:
         a = dt / (fb.swing_anchor_filter + dt) if fb.swing_anchor_filter > 0 else 1.0
         self._pelvis_filtered += n_ticks * dt * meas.com_velocity * np.array([1.0, 1.0, 0.0])
         self._pelvis_filtered += a * (pelvis - self._pelvis_filtered)
-        z_torso = self._ground_z + gait.com_height - (r_ik @ meas.com_local)[2]
+        z_torso = self.schedule.ground_z + gait.com_height - (r_ik @ meas.com_local)[2]
         p_torso = pelvis - r_ik @ self._pelvis_offset
         p_torso[2] = z_torso
         p_torso_swing = self._pelvis_filtered - r_ik @ self._pelvis_offset
@@ -264,11 +232,11 @@ class BipedZmpController:
         # ---- inverse kinematics of both legs
         q_des = np.zeros(12)
         for side in SIDES:
-            origin = p_torso_swing if phase[side] == "swing" else p_torso
+            origin = p_torso_swing if phase[side] is LegPhase.SWING else p_torso
             foot_pos = r_ik.T @ (feet[side][:3] - origin)
             foot_rot = r_ik.T @ rot_z(feet[side][3])
             q_des[_LEG[side]] = self.model.leg_ik(side, foot_pos, foot_rot)
-        weights = {side: self._stance_weight(t, side) for side in SIDES}
+        weights = {side: self.schedule.stance_weight(t, side) for side in SIDES}
         self._torso_correction(q_des, weights, rpy, wrap_angle(rpy[2] - yaw_des))
         q_des = self.model.clip_to_limits(q_des)
         if self._q_des_prev is None:
@@ -290,15 +258,15 @@ class BipedZmpController:
         q_cmd = q_des + 0.5 * dt * dq_des
 
         self.status = ControllerStatus(
-            mode=self._mode,
-            support=self._step.support.side if self._step is not None else "",
+            mode=self.schedule.mode,
+            support=self.schedule.step.support.side if self.schedule.step is not None else None,
             com_measured=meas.com.copy(),
             com_reference=ref[0].copy(),
             zmp_reference=zmp_ref[0].copy(),
             zmp_desired=zmp_cmd.copy(),
             dcm_error=dcm_err.copy(),
             step_adjustment=self._adjust.copy(),
-            steps_taken=self._steps_taken,
+            steps_taken=self.schedule.steps_taken,
         )
         return JointCommand(self.joint_names, q_cmd, dq_des, kp, kd, tau)
 
@@ -316,93 +284,20 @@ class BipedZmpController:
         self._first_tick = True
         self._t_last = t
         meas = self.estimator.initialize(base, q)
-        for side in SIDES:
-            pose = meas.feet[side].copy()
-            self._feet[side] = pose
-        self._ground_z = float(np.mean([self._feet[s][2] for s in SIDES]))
-        mid = self._stand_midpoint()
-        self._stand_zmp = (t, mid, mid)
+        self.schedule.initialize(t, meas.feet)
         self.preview.reset(meas.com[:2])
-        self._mode = "stand"
-        self._step = None
 
-    def _footstep(self, side: str) -> Footstep:
-        pose = self._feet[side]
-        return Footstep(side, float(pose[0]), float(pose[1]), float(pose[3]))
+    def _reanchor(self, meas: BipedEstimate) -> None:
+        """Re-anchor the reference on the real robot when it has drifted from it.
 
-    def _stand_midpoint(self) -> np.ndarray:
-        return 0.5 * sum(self.planner.zmp_point(self._footstep(s)) for s in SIDES)
-
-    def _stand_zmp_at(self, times: np.ndarray) -> np.ndarray:
-        t0, start, end = self._stand_zmp
-        dur = self.params.gait.stop_double_support
-        a = np.clip((times - t0) / dur, 0.0, 1.0)[:, None]
-        return start + a * (end - start)
-
-    def _advance_gait(self, t: float, meas: BipedEstimate) -> None:
-        gait = self.params.gait
-        if self._mode == "stand":
-            # follow the measured sole height while both feet are down (ground level in odom)
-            z = float(np.mean([meas.feet[s][2] for s in SIDES]))
-            self._ground_z += 0.05 * (z - self._ground_z)
-            for side in SIDES:
-                self._feet[side][2] = self._ground_z
-            if not self.command.moving:
-                return
-            swing = self.planner.first_swing_side(self.command.target)
-            support = self._footstep(swing.other)
-            zmp_now = self._stand_zmp_at(np.array([t]))[0]
-            ds = gait.start_delay + gait.start_double_support
-            self._step = self._new_step(support, t, ds, zmp_now)
-            self._step.hold = gait.start_delay
-            self._mode = "walk"
-            return
-        step = self._step
-        if t < step.t_end - 1e-9:
-            return
-        # touchdown: the landed foot's measured pose becomes the new support
-        landed_side = step.swing
-        landed = meas.feet[landed_side].copy()
-        target = step.target
-        # keep the plan's heading/height but take the measured position and yaw
-        self._feet[landed_side] = np.array([landed[0], landed[1], self._ground_z, landed[3]])
-        self._steps_taken += 1
-        new_support = self._footstep(landed_side)
-        old_support = step.support
-        if not self.command.moving and self.planner.is_aligned(old_support, target):
-            self._mode = "stand"
-            self._step = None
-            start = self.planner.zmp_point(new_support)
-            self._stand_zmp = (step.t_end, start, self._stand_midpoint())
-            return
-        zmp_start = self.planner.zmp_point(old_support)
-        self._step = self._new_step(new_support, step.t_end, gait.double_support, zmp_start)
-        # Re-anchor the reference on the real robot when it has drifted from it (a push, a
-        # slip, an adjusted step): the preview then plans from the measured CoM state.
+        After a push, a slip or an adjusted step the preview then plans from the measured CoM.
+        """
         fb = self.params.feedback
+        zmp_start = self.schedule.step.zmp_start
         err = meas.dcm - self.preview.dcm
         if fb.reference_reset > 0.0 and math.hypot(err[0], err[1]) > fb.reference_reset:
             com, vel = meas.com[:2], meas.com_velocity[:2]
             self.preview.reset(com, vel, self.omega**2 * (com - zmp_start))
-
-    def _new_step(self, support: Footstep, t0: float, ds: float, zmp_start) -> _Step:
-        gait = self.params.gait
-        swing = support.side.other
-        target = self._plan_target(support)
-        return _Step(
-            support=support,
-            swing_start=self._feet[swing].copy(),
-            target=target,
-            t_start=t0,
-            double_support=ds,
-            single_support=gait.single_support,
-            zmp_start=np.asarray(zmp_start, dtype=float),
-        )
-
-    def _plan_target(self, support: Footstep) -> Footstep:
-        if self.command.moving:
-            return self.planner.next_step(support, self.command.velocity)
-        return self.planner.aligned_step(support)
 
     def _nominal_dcm_at_touchdown(self, support: Footstep, target: Footstep) -> np.ndarray:
         """Capture point the footstep plan expects when ``target`` touches down (odom, (2,)).
@@ -434,12 +329,12 @@ class BipedZmpController:
         (error - room) exp(omega T) until touchdown, and the swing target moves by
         ``step_adjust_gain`` times that predicted excess, so the next support takes it over.
         """
-        step = self._step
+        step = self.schedule.step
         self._adjust = np.zeros(2)
         if step is None or step.frozen:
             return
         gait, fb = self.params.gait, self.params.feedback
-        nominal = self._plan_target(step.support)
+        nominal = self.planner.next_target(step.support, self.command.velocity, self.command.moving)
         target = nominal
         if t >= step.t_lift and fb.step_adjust_gain > 0:
             remaining = max(step.t_end - t, 0.0)
@@ -466,10 +361,10 @@ class BipedZmpController:
 
     def _zmp_reference(self, times: np.ndarray) -> np.ndarray:
         """ZMP reference (len(times), 2) from the current step and the planned footsteps."""
-        if self._mode == "stand":
-            return self._stand_zmp_at(times)
+        if self.schedule.mode is GaitMode.STAND:
+            return self.schedule.stand_zmp_at(times)
         gait = self.params.gait
-        step = self._step
+        step = self.schedule.step
         zp = self.planner.zmp_point
         knot_t = [step.t_start, step.t_start + step.hold, step.t_lift]
         knot_p = [step.zmp_start, step.zmp_start, zp(step.support)]
@@ -506,18 +401,11 @@ class BipedZmpController:
         out[:, 1] = np.interp(times, knot_t, knot_p[:, 1])
         return out
 
-    def _phases(self, t: float) -> dict[str, str]:
-        """'stance' or 'swing' for each leg at time ``t``."""
-        phase = {side: "stance" for side in SIDES}
-        if self._mode == "walk" and t >= self._step.t_lift:
-            phase[self._step.swing] = "swing"
-        return phase
-
     def _support_polygon(self, phase: dict[str, str], margin: float) -> np.ndarray:
         """Convex support polygon (k, 2) of the stance soles, shrunk by ``margin``."""
-        stance = tuple(side for side in SIDES if phase[side] == "stance")
+        stance = tuple(side for side in SIDES if phase[side] is LegPhase.STANCE)
         key = (stance, margin) + tuple(
-            round(float(v), 3) for side in stance for v in self._feet[side][[0, 1, 3]]
+            round(float(v), 3) for side in stance for v in self.schedule.feet[side][[0, 1, 3]]
         )
         if self._polygon_cache is not None and self._polygon_cache[0] == key:
             return self._polygon_cache[1]
@@ -525,7 +413,7 @@ class BipedZmpController:
         corners = self._sole_center + self._corner_signs * half
         pts = []
         for side in stance:
-            fs = self._footstep(side)
+            fs = self.schedule.footstep(side)
             pts.extend(fs.to_world(c) for c in corners)
         polygon = convex_hull(np.array(pts))
         self._polygon_cache = (key, polygon)
@@ -535,10 +423,10 @@ class BipedZmpController:
         """Desired (x, y, z, yaw) of both feet and the leg phases."""
         feet, phase = {}, {}
         for side in SIDES:
-            feet[side] = self._feet[side].copy()
-            phase[side] = "stance"
-        step = self._step
-        if self._mode == "walk" and t >= step.t_lift:
+            feet[side] = self.schedule.feet[side].copy()
+            phase[side] = LegPhase.STANCE
+        step = self.schedule.step
+        if self.schedule.mode is GaitMode.WALK and t >= step.t_lift:
             gait = self.params.gait
             if step.trajectory is None:
                 step.trajectory = SwingTrajectory(
@@ -549,30 +437,13 @@ class BipedZmpController:
                     gait.swing_lift_fraction,
                     gait.swing_land_fraction,
                 )
-            target = np.array([step.target.x, step.target.y, self._ground_z, step.target.yaw])
+            target = np.array(
+                [step.target.x, step.target.y, self.schedule.ground_z, step.target.yaw]
+            )
             pose, _ = step.trajectory.sample(t, target)
             feet[step.swing] = pose
-            phase[step.swing] = "swing"
+            phase[step.swing] = LegPhase.SWING
         return feet, phase
-
-    def _stance_weight(self, t: float, side: str) -> float:
-        """1 for a loaded stance leg, 0 for a swing leg, ramps around touchdown/lift-off."""
-        step = self._step
-        if self._mode != "walk" or step is None:
-            return 1.0
-        gait = self.params.gait
-        if side == step.swing:
-            if t >= step.t_lift:
-                return 0.0
-            down = clamp((step.t_lift - t) / gait.liftoff_blend, 0.0, 1.0)
-            up = 1.0
-            if self._steps_taken > 0:  # this foot touched down at t_start
-                up = clamp((t - step.t_start) / gait.touchdown_blend, 0.0, 1.0)
-            return min(up, down)
-        # the support foot touched down at t_start (except for the very first step)
-        if step.hold > 0.0:
-            return 1.0
-        return clamp((t - step.t_start) / gait.touchdown_blend, 0.0, 1.0)
 
     def _torso_correction(self, q_des, weights: dict, rpy: np.ndarray, yaw_err: float) -> None:
         """Stance-hip offsets that turn the torso upright and to the desired heading.
@@ -615,13 +486,13 @@ class BipedZmpController:
         mass = self.model.total_mass
         horizontal = self.omega**2 * (meas.com[:2] - zmp_cmd)
         force = mass * np.array([horizontal[0], horizontal[1], GRAVITY])
-        stance = [s for s in SIDES if phase[s] == "stance"]
+        stance = [s for s in SIDES if phase[s] is LegPhase.STANCE]
         rot, pos = meas.rotation, meas.position
         gravity_local = rot.T @ np.array([0.0, 0.0, -GRAVITY])
         for side in SIDES:
             frames = meas.frames[side]
             tau[_LEG[side]] = self.model.leg_gravity_torques(side, frames, gravity_local)
-            if phase[side] == "swing" and self.params.gains.inertia_feedforward > 0.0:
+            if phase[side] is LegPhase.SWING and self.params.gains.inertia_feedforward > 0.0:
                 inertia = self.model.leg_mass_matrix(side, frames)
                 tau[_LEG[side]] += (
                     self.params.gains.inertia_feedforward * inertia @ ddq_des[_LEG[side]]
@@ -631,8 +502,8 @@ class BipedZmpController:
             cops[stance[0]] = zmp_cmd
             shares[stance[0]] = 1.0
         else:
-            pl = self.planner.zmp_point(self._footstep("l"))
-            pr = self.planner.zmp_point(self._footstep("r"))
+            pl = self.planner.zmp_point(self.schedule.footstep("l"))
+            pr = self.planner.zmp_point(self.schedule.footstep("r"))
             seg = pr - pl
             alpha = clamp(float((zmp_cmd - pl) @ seg) / max(float(seg @ seg), 1e-9), 0.0, 1.0)
             shares = {"l": 1.0 - alpha, "r": alpha}

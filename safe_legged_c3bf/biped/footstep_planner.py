@@ -126,6 +126,12 @@ class FootstepPlanner:
         step = Footstep(support.side.other, float(foot[0]), float(foot[1]), wrap_angle(yaw))
         return self.clamp(support, step)
 
+    def next_target(self, support: Footstep, command: np.ndarray, moving: bool) -> Footstep:
+        """The footstep after ``support``: for ``command`` when ``moving``, else aligning."""
+        if moving:
+            return self.next_step(support, command)
+        return self.aligned_step(support)
+
     def plan(self, support: Footstep, command: np.ndarray, count: int) -> list[Footstep]:
         """The next ``count`` footsteps after ``support`` (alternating sides)."""
         steps = []
