@@ -51,7 +51,8 @@ from safe_legged_c3bf.biped.model import BipedModel
 from safe_legged_c3bf.biped.params import BipedParams
 from safe_legged_c3bf.biped.side import SIDES, Side
 from safe_legged_c3bf.biped.state_estimate import BipedEstimate, StateEstimator
-from safe_legged_c3bf.biped.swing_trajectory import SwingTrajectory
+from safe_legged_c3bf.biped.swing import SwingPlanner
+from safe_legged_c3bf.biped.zmp_reference import zmp_reference
 from safe_legged_c3bf.gait_controller import VelocityCommand
 from safe_legged_c3bf.joint_command import JointCommand
 
@@ -109,6 +110,9 @@ class BipedZmpController:
         self.planner = FootstepPlanner(gait, self.params.steps)
         self.command = CommandFilter(self.params.command)
         self.schedule = GaitSchedule(gait, self.planner)
+        self.swing = SwingPlanner(
+            self.planner, gait, self.params.feedback, self.omega, self.model.foot
+        )
         self.estimator = StateEstimator(
             self.model, self.omega, self.params.feedback, self.control_period
         )
@@ -120,7 +124,7 @@ class BipedZmpController:
         self._pelvis_offset = hips.mean(axis=0)
         foot = self.model.foot
         self._sole_center = np.array(foot.center)
-        self._sole_half = np.array([foot.length / 2, foot.width / 2])
+        self._sole_half = foot.half_size
         self._corner_signs = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=float)
         self.status = ControllerStatus()
         self.reset()
@@ -150,7 +154,6 @@ class BipedZmpController:
         self._polygon_cache: tuple | None = None
         self.estimator.reset()
         self._adjust = np.zeros(2)
-        self._cp_error = np.zeros(2)
 
     @property
     def mode(self) -> GaitMode:
@@ -189,7 +192,7 @@ class BipedZmpController:
         gait = self.params.gait
 
         # ---- reference: ZMP from the footsteps -> preview control -> reference CoM/DCM
-        zmp_ref = self._zmp_reference(t + self._preview_offsets)
+        zmp_ref = zmp_reference(self.schedule, self.command, t + self._preview_offsets)
         for _ in range(n_ticks):
             self.preview.step(zmp_ref)
         ref = self.preview.state.copy()
@@ -203,10 +206,10 @@ class BipedZmpController:
         self.schedule.track_stance_feet(phase, meas.feet)
         zmp_cmd = clip_to_polygon(zmp_des, self._support_polygon(phase, fb.support_margin))
         # ---- stepping strategy: move the swing target by the predicted DCM error at touchdown
-        self._update_swing_target(t, meas.dcm)
+        self._adjust = self.swing.update_target(self.schedule.step, t, meas.dcm, self.command)
 
         # ---- desired feet poses (odom) and the torso pose the legs are solved from
-        feet, phase = self._feet_targets(t)
+        feet = self._feet_targets(t, phase)
         yaw_des = self._torso_yaw(feet)
         rpy = meas.rpy
         # Both legs are solved from the torso's (filtered) measured orientation, so the feet
@@ -299,108 +302,6 @@ class BipedZmpController:
             com, vel = meas.com[:2], meas.com_velocity[:2]
             self.preview.reset(com, vel, self.omega**2 * (com - zmp_start))
 
-    def _nominal_dcm_at_touchdown(self, support: Footstep, target: Footstep) -> np.ndarray:
-        """Capture point the footstep plan expects when ``target`` touches down (odom, (2,)).
-
-        Backward recursion over the planned footsteps with the ZMP at each sole centre for a
-        whole step period (Englsberger's DCM plan): xi_k = z_k + (xi_{k+1} - z_k) e^(-omega T),
-        ending at the last footstep (or between the feet when stopping).
-        """
-        zp = self.planner.zmp_point
-        if self.command.moving:
-            future = [target, *self.planner.plan(target, self.command.velocity, 3)]
-            xi = zp(future[-1])
-        else:
-            future = [target]
-            xi = 0.5 * (zp(support) + zp(target))
-        decay = math.exp(-self.omega * self.params.gait.step_period)
-        for f in reversed(future[:-1]):
-            z = zp(f)
-            xi = z + (xi - z) * decay
-        return xi
-
-    def _update_swing_target(self, t: float, dcm: np.ndarray) -> None:
-        """Re-plan the swing target and add the capture-point step adjustment.
-
-        The footstep plan predicts the capture point now, xi_nom = z + (xi_td - z) e^(-omega T)
-        (z: support sole centre, xi_td: planned capture point at touchdown in T s). Per axis of
-        the support foot the ankles can still remove an error up to ``room``, the distance from
-        the sole centre to its edge (minus the margin); the part beyond it grows as
-        (error - room) exp(omega T) until touchdown, and the swing target moves by
-        ``step_adjust_gain`` times that predicted excess, so the next support takes it over.
-        """
-        step = self.schedule.step
-        self._adjust = np.zeros(2)
-        if step is None or step.frozen:
-            return
-        gait, fb = self.params.gait, self.params.feedback
-        nominal = self.planner.next_target(step.support, self.command.velocity, self.command.moving)
-        target = nominal
-        if t >= step.t_lift and fb.step_adjust_gain > 0:
-            remaining = max(step.t_end - t, 0.0)
-            support = step.support
-            z = self.planner.zmp_point(support)
-            xi_td = self._nominal_dcm_at_touchdown(support, nominal)
-            xi_nom = z + (xi_td - z) * math.exp(-self.omega * remaining)
-            c, s_ = math.cos(support.yaw), math.sin(support.yaw)
-            d = dcm - xi_nom
-            err = np.array([c * d[0] + s_ * d[1], -s_ * d[0] + c * d[1]])
-            room = np.maximum(self._sole_half - fb.support_margin, 0.0)
-            excess = np.sign(err) * np.maximum(np.abs(err) - room, 0.0)
-            local = fb.step_adjust_gain * excess * math.exp(self.omega * remaining)
-            adjust = np.array([c * local[0] - s_ * local[1], s_ * local[0] + c * local[1]])
-            norm = math.hypot(adjust[0], adjust[1])
-            if norm > fb.max_step_adjust:
-                adjust *= fb.max_step_adjust / norm
-            target = self.planner.clamp(step.support, nominal.moved(adjust))
-            self._adjust = target.xy - nominal.xy
-            self._cp_error = err
-        step.target = target
-        if t >= step.t_lift + gait.replan_until * step.single_support:
-            step.frozen = True
-
-    def _zmp_reference(self, times: np.ndarray) -> np.ndarray:
-        """ZMP reference (len(times), 2) from the current step and the planned footsteps."""
-        if self.schedule.mode is GaitMode.STAND:
-            return self.schedule.stand_zmp_at(times)
-        gait = self.params.gait
-        step = self.schedule.step
-        zp = self.planner.zmp_point
-        knot_t = [step.t_start, step.t_start + step.hold, step.t_lift]
-        knot_p = [step.zmp_start, step.zmp_start, zp(step.support)]
-        t_end = step.t_end
-        horizon_end = times[-1]
-        if not self.command.moving:
-            # finish the current step (and one aligning step if needed), then stand
-            last, prev = step.target, step.support
-            if not self.planner.is_aligned(prev, last):
-                nxt = self.planner.aligned_step(last)
-                knot_t += [t_end, t_end + gait.double_support]
-                knot_p += [zp(prev), zp(last)]
-                t_end += gait.step_period
-                prev, last = last, nxt
-            knot_t += [t_end, t_end + gait.stop_double_support]
-            mid = 0.5 * (zp(prev) + zp(last))
-            knot_p += [zp(prev), mid]
-        else:
-            footsteps = [step.target]
-            n_more = int(np.ceil((horizon_end - t_end) / gait.step_period)) + 1
-            footsteps += self.planner.plan(step.target, self.command.velocity, max(n_more, 0))
-            prev = step.support
-            for f in footsteps:
-                knot_t += [t_end, t_end + gait.double_support]
-                knot_p += [zp(prev), zp(f)]
-                t_end += gait.step_period
-                prev = f
-                if t_end - gait.single_support > horizon_end:
-                    break
-        knot_t = np.asarray(knot_t)
-        knot_p = np.asarray(knot_p)
-        out = np.empty((times.size, 2))
-        out[:, 0] = np.interp(times, knot_t, knot_p[:, 0])
-        out[:, 1] = np.interp(times, knot_t, knot_p[:, 1])
-        return out
-
     def _support_polygon(self, phase: dict[str, str], margin: float) -> np.ndarray:
         """Convex support polygon (k, 2) of the stance soles, shrunk by ``margin``."""
         stance = tuple(side for side in SIDES if phase[side] is LegPhase.STANCE)
@@ -419,31 +320,13 @@ class BipedZmpController:
         self._polygon_cache = (key, polygon)
         return polygon
 
-    def _feet_targets(self, t: float):
-        """Desired (x, y, z, yaw) of both feet and the leg phases."""
-        feet, phase = {}, {}
-        for side in SIDES:
-            feet[side] = self.schedule.feet[side].copy()
-            phase[side] = LegPhase.STANCE
+    def _feet_targets(self, t: float, phase: dict[Side, LegPhase]) -> dict[Side, np.ndarray]:
+        """Desired (x, y, z, yaw) of both soles in odom: stance feet stay, the swing foot moves."""
+        feet = {side: self.schedule.feet[side].copy() for side in SIDES}
         step = self.schedule.step
-        if self.schedule.mode is GaitMode.WALK and t >= step.t_lift:
-            gait = self.params.gait
-            if step.trajectory is None:
-                step.trajectory = SwingTrajectory(
-                    step.swing_start,
-                    step.t_lift,
-                    step.single_support,
-                    gait.step_height,
-                    gait.swing_lift_fraction,
-                    gait.swing_land_fraction,
-                )
-            target = np.array(
-                [step.target.x, step.target.y, self.schedule.ground_z, step.target.yaw]
-            )
-            pose, _ = step.trajectory.sample(t, target)
-            feet[step.swing] = pose
-            phase[step.swing] = LegPhase.SWING
-        return feet, phase
+        if step is not None and phase[step.swing] is LegPhase.SWING:
+            feet[step.swing] = self.swing.foot_pose(step, t, self.schedule.ground_z)
+        return feet
 
     def _torso_correction(self, q_des, weights: dict, rpy: np.ndarray, yaw_err: float) -> None:
         """Stance-hip offsets that turn the torso upright and to the desired heading.

@@ -51,6 +51,11 @@ class FootGeometry:
     length: float
     width: float
 
+    @property
+    def half_size(self) -> np.ndarray:
+        """(2,) half the sole's length and width (m)."""
+        return np.array([self.length / 2, self.width / 2])
+
 
 class BipedModel:
     """Leg geometry, joint limits and mass distribution of the biped."""
