@@ -35,22 +35,21 @@ from dataclasses import dataclass
 import numpy as np
 
 from safe_legged_c3bf.base_state import BaseState
+from safe_legged_c3bf.biped.balance import Balance
 from safe_legged_c3bf.biped.command_filter import CommandFilter
 from safe_legged_c3bf.biped.footstep_planner import (
     Footstep,
     FootstepPlanner,
     clamp,
-    clip_to_polygon,
-    convex_hull,
     wrap_angle,
 )
 from safe_legged_c3bf.biped.gait_schedule import GaitMode, GaitSchedule, LegPhase
 from safe_legged_c3bf.biped.leg_ik import rot_x, rot_y, rot_z, static_torques
-from safe_legged_c3bf.biped.lipm_preview import GRAVITY, ZmpPreviewController
+from safe_legged_c3bf.biped.lipm_preview import GRAVITY
 from safe_legged_c3bf.biped.model import BipedModel
 from safe_legged_c3bf.biped.params import BipedParams
 from safe_legged_c3bf.biped.side import SIDES, Side
-from safe_legged_c3bf.biped.state_estimate import BipedEstimate, StateEstimator
+from safe_legged_c3bf.biped.state_estimate import StateEstimator
 from safe_legged_c3bf.biped.swing import SwingPlanner
 from safe_legged_c3bf.biped.zmp_reference import zmp_reference
 from safe_legged_c3bf.gait_controller import VelocityCommand
@@ -99,14 +98,8 @@ class BipedZmpController:
         self.joint_names = list(self.model.joint_names)
         gait = self.params.gait
         self.control_period = gait.control_period
-        self.preview = ZmpPreviewController(
-            gait.control_period,
-            gait.com_height,
-            gait.preview_horizon,
-            q_e=gait.preview_q_e,
-            r=gait.preview_r,
-        )
-        self.omega = self.preview.omega
+        self.balance = Balance(gait, self.params.feedback, self.model.foot)
+        self.omega = self.balance.omega
         self.planner = FootstepPlanner(gait, self.params.steps)
         self.command = CommandFilter(self.params.command)
         self.schedule = GaitSchedule(gait, self.planner)
@@ -116,16 +109,12 @@ class BipedZmpController:
         self.estimator = StateEstimator(
             self.model, self.omega, self.params.feedback, self.control_period
         )
-        self._preview_offsets = gait.control_period * np.arange(self.preview.n_preview + 1)
+        self._preview_offsets = gait.control_period * np.arange(self.balance.preview.n_preview + 1)
         g = self.params.gains
         self._kp = {"stance": g.leg_array("stance_kp"), "swing": g.leg_array("swing_kp")}
         self._kd = {"stance": g.leg_array("stance_kd"), "swing": g.leg_array("swing_kd")}
         hips = np.array([self.model.legs[side].hip_offset for side in SIDES])
         self._pelvis_offset = hips.mean(axis=0)
-        foot = self.model.foot
-        self._sole_center = np.array(foot.center)
-        self._sole_half = foot.half_size
-        self._corner_signs = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=float)
         self.status = ControllerStatus()
         self.reset()
 
@@ -151,7 +140,6 @@ class BipedZmpController:
         self._q_des_prev: np.ndarray | None = None
         self._dq_des_prev = np.zeros(12)
         self._pelvis_filtered: np.ndarray | None = None
-        self._polygon_cache: tuple | None = None
         self.estimator.reset()
         self._adjust = np.zeros(2)
 
@@ -186,25 +174,20 @@ class BipedZmpController:
         self.command.update(command, n_ticks * dt)
         meas = self.estimator.update(base, q, n_ticks * dt)
         if self.schedule.advance(t, meas.feet, self.command):
-            self._reanchor(meas)
+            self.balance.reanchor(meas, self.schedule.step.zmp_start)
 
         fb = self.params.feedback
         gait = self.params.gait
 
         # ---- reference: ZMP from the footsteps -> preview control -> reference CoM/DCM
         zmp_ref = zmp_reference(self.schedule, self.command, t + self._preview_offsets)
-        for _ in range(n_ticks):
-            self.preview.step(zmp_ref)
-        ref = self.preview.state.copy()
-        zmp_model = self.preview.zmp
-        dcm_ref = ref[0] + ref[1] / self.omega
+        ref = self.balance.follow(zmp_ref, n_ticks)
 
         # ---- DCM (capture point) tracking: desired ZMP, kept inside the support polygon
-        dcm_err = meas.dcm - dcm_ref
-        zmp_des = zmp_model + (1.0 + fb.dcm_gain / self.omega) * dcm_err
         phase = self.schedule.phases(t)
         self.schedule.track_stance_feet(phase, meas.feet)
-        zmp_cmd = clip_to_polygon(zmp_des, self._support_polygon(phase, fb.support_margin))
+        stance = [self.schedule.footstep(s) for s in SIDES if phase[s] is LegPhase.STANCE]
+        zmp_cmd, dcm_err = self.balance.desired_zmp(meas.dcm, ref, stance)
         # ---- stepping strategy: move the swing target by the predicted DCM error at touchdown
         self._adjust = self.swing.update_target(self.schedule.step, t, meas.dcm, self.command)
 
@@ -264,7 +247,7 @@ class BipedZmpController:
             mode=self.schedule.mode,
             support=self.schedule.step.support.side if self.schedule.step is not None else None,
             com_measured=meas.com.copy(),
-            com_reference=ref[0].copy(),
+            com_reference=ref.com.copy(),
             zmp_reference=zmp_ref[0].copy(),
             zmp_desired=zmp_cmd.copy(),
             dcm_error=dcm_err.copy(),
@@ -288,37 +271,7 @@ class BipedZmpController:
         self._t_last = t
         meas = self.estimator.initialize(base, q)
         self.schedule.initialize(t, meas.feet)
-        self.preview.reset(meas.com[:2])
-
-    def _reanchor(self, meas: BipedEstimate) -> None:
-        """Re-anchor the reference on the real robot when it has drifted from it.
-
-        After a push, a slip or an adjusted step the preview then plans from the measured CoM.
-        """
-        fb = self.params.feedback
-        zmp_start = self.schedule.step.zmp_start
-        err = meas.dcm - self.preview.dcm
-        if fb.reference_reset > 0.0 and math.hypot(err[0], err[1]) > fb.reference_reset:
-            com, vel = meas.com[:2], meas.com_velocity[:2]
-            self.preview.reset(com, vel, self.omega**2 * (com - zmp_start))
-
-    def _support_polygon(self, phase: dict[str, str], margin: float) -> np.ndarray:
-        """Convex support polygon (k, 2) of the stance soles, shrunk by ``margin``."""
-        stance = tuple(side for side in SIDES if phase[side] is LegPhase.STANCE)
-        key = (stance, margin) + tuple(
-            round(float(v), 3) for side in stance for v in self.schedule.feet[side][[0, 1, 3]]
-        )
-        if self._polygon_cache is not None and self._polygon_cache[0] == key:
-            return self._polygon_cache[1]
-        half = np.maximum(self._sole_half - margin, 1e-3)
-        corners = self._sole_center + self._corner_signs * half
-        pts = []
-        for side in stance:
-            fs = self.schedule.footstep(side)
-            pts.extend(fs.to_world(c) for c in corners)
-        polygon = convex_hull(np.array(pts))
-        self._polygon_cache = (key, polygon)
-        return polygon
+        self.balance.reset(meas.com[:2])
 
     def _feet_targets(self, t: float, phase: dict[Side, LegPhase]) -> dict[Side, np.ndarray]:
         """Desired (x, y, z, yaw) of both soles in odom: stance feet stay, the swing foot moves."""

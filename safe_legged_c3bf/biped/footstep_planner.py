@@ -51,6 +51,11 @@ class Footstep:
         if not isinstance(self.side, Side):  # raises ValueError for anything but 'l', 'r'
             object.__setattr__(self, "side", Side(self.side))
 
+    @classmethod
+    def from_pose(cls, side: Side, pose: np.ndarray) -> Footstep:
+        """The footstep of a sole pose (x, y, z, yaw) in odom (z is dropped)."""
+        return cls(side, float(pose[0]), float(pose[1]), float(pose[3]))
+
     @property
     def xy(self) -> np.ndarray:
         """Position (2,)."""

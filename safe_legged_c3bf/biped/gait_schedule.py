@@ -141,8 +141,7 @@ class GaitSchedule:
 
     def footstep(self, side: Side) -> Footstep:
         """Where the ``side`` foot stands (see :attr:`feet`)."""
-        pose = self.feet[side]
-        return Footstep(side, float(pose[0]), float(pose[1]), float(pose[3]))
+        return Footstep.from_pose(side, self.feet[side])
 
     def stand_midpoint(self) -> np.ndarray:
         """Standing ZMP (2,): midway between the feet's ZMP points (odom, m)."""
