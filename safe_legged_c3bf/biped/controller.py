@@ -37,15 +37,14 @@ import numpy as np
 from safe_legged_c3bf.base_state import BaseState
 from safe_legged_c3bf.biped.balance import Balance
 from safe_legged_c3bf.biped.command_filter import CommandFilter
+from safe_legged_c3bf.biped.feedforward import FeedforwardTorques
 from safe_legged_c3bf.biped.footstep_planner import (
-    Footstep,
     FootstepPlanner,
     clamp,
     wrap_angle,
 )
 from safe_legged_c3bf.biped.gait_schedule import GaitMode, GaitSchedule, LegPhase
-from safe_legged_c3bf.biped.leg_ik import rot_x, rot_y, rot_z, static_torques
-from safe_legged_c3bf.biped.lipm_preview import GRAVITY
+from safe_legged_c3bf.biped.leg_ik import rot_x, rot_y, rot_z
 from safe_legged_c3bf.biped.model import BipedModel
 from safe_legged_c3bf.biped.params import BipedParams
 from safe_legged_c3bf.biped.side import SIDES, Side
@@ -106,6 +105,7 @@ class BipedZmpController:
         self.swing = SwingPlanner(
             self.planner, gait, self.params.feedback, self.omega, self.model.foot
         )
+        self.feedforward = FeedforwardTorques(self.model, self.params, self.planner, self.omega)
         self.estimator = StateEstimator(
             self.model, self.omega, self.params.feedback, self.control_period
         )
@@ -239,7 +239,7 @@ class BipedZmpController:
             w = weights[side]
             kp[_LEG[side]] = self._kp["swing"] + w * (self._kp["stance"] - self._kp["swing"])
             kd[_LEG[side]] = self._kd["swing"] + w * (self._kd["stance"] - self._kd["swing"])
-        tau = self._feedforward(meas, phase, feet, zmp_cmd, ddq_des)
+        tau = self.feedforward.torques(meas, phase, feet, zmp_cmd, ddq_des)
         # the drivers hold q* for a whole tick: aim at the middle of it
         q_cmd = q_des + 0.5 * dt * dq_des
 
@@ -305,61 +305,3 @@ class BipedZmpController:
     def _torso_yaw(feet: dict[str, np.ndarray]) -> float:
         a, b = float(feet["l"][3]), float(feet["r"][3])
         return wrap_angle(a + 0.5 * wrap_angle(b - a))
-
-    def _feedforward(self, meas, phase, feet, zmp_cmd, ddq_des) -> np.ndarray:
-        """Feed-forward joint torques.
-
-        Every leg carries its own weight; the stance legs carry the ground reaction that the
-        LIPM needs for the commanded ZMP, F = M (omega^2 (c - zmp), g), applied at the commanded
-        ZMP (split between the feet in double support) -- which is what makes the compliant
-        stance ankles produce that ZMP; the swing leg gets its inertia times the desired joint
-        acceleration.
-        """
-        tau = np.zeros(12)
-        scale = self.params.gains.feedforward
-        if scale == 0.0:
-            return tau
-        mass = self.model.total_mass
-        horizontal = self.omega**2 * (meas.com[:2] - zmp_cmd)
-        force = mass * np.array([horizontal[0], horizontal[1], GRAVITY])
-        stance = [s for s in SIDES if phase[s] is LegPhase.STANCE]
-        rot, pos = meas.rotation, meas.position
-        gravity_local = rot.T @ np.array([0.0, 0.0, -GRAVITY])
-        for side in SIDES:
-            frames = meas.frames[side]
-            tau[_LEG[side]] = self.model.leg_gravity_torques(side, frames, gravity_local)
-            if phase[side] is LegPhase.SWING and self.params.gains.inertia_feedforward > 0.0:
-                inertia = self.model.leg_mass_matrix(side, frames)
-                tau[_LEG[side]] += (
-                    self.params.gains.inertia_feedforward * inertia @ ddq_des[_LEG[side]]
-                )
-        cops, shares = {}, {}
-        if len(stance) == 1:
-            cops[stance[0]] = zmp_cmd
-            shares[stance[0]] = 1.0
-        else:
-            pl = self.planner.zmp_point(self.schedule.footstep("l"))
-            pr = self.planner.zmp_point(self.schedule.footstep("r"))
-            seg = pr - pl
-            alpha = clamp(float((zmp_cmd - pl) @ seg) / max(float(seg @ seg), 1e-9), 0.0, 1.0)
-            shares = {"l": 1.0 - alpha, "r": alpha}
-            residual = zmp_cmd - (pl + alpha * seg)
-            margin = self.params.feedback.support_margin
-            for side, p in (("l", pl), ("r", pr)):
-                cops[side] = self._clip_to_foot(side, feet[side], p + residual, margin)
-        for side in stance:
-            cop = np.array([cops[side][0], cops[side][1], feet[side][2]])
-            f_local = rot.T @ (shares[side] * force)
-            cop_local = rot.T @ (cop - pos)
-            tau[_LEG[side]] += static_torques(meas.frames[side], f_local, cop_local)
-        return scale * tau
-
-    def _clip_to_foot(self, side: str, pose: np.ndarray, point: np.ndarray, margin: float):
-        foot = self.model.foot
-        fs = Footstep(side, float(pose[0]), float(pose[1]), float(pose[3]))
-        local = fs.to_local(point)
-        hx = max(foot.length / 2 - margin, 0.0)
-        hy = max(foot.width / 2 - margin, 0.0)
-        local[0] = clamp(local[0], foot.center[0] - hx, foot.center[0] + hx)
-        local[1] = clamp(local[1], foot.center[1] - hy, foot.center[1] + hy)
-        return fs.to_world(local)
