@@ -29,7 +29,6 @@ The output is a JointCommand of position targets, their rates, per-leg stance/sw
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,10 +40,9 @@ from safe_legged_c3bf.biped.feedforward import FeedforwardTorques
 from safe_legged_c3bf.biped.footstep_planner import (
     FootstepPlanner,
     clamp,
-    wrap_angle,
 )
 from safe_legged_c3bf.biped.gait_schedule import GaitMode, GaitSchedule, LegPhase
-from safe_legged_c3bf.biped.leg_ik import rot_x, rot_y, rot_z
+from safe_legged_c3bf.biped.joint_targets import JointTargets, LegGains
 from safe_legged_c3bf.biped.model import BipedModel
 from safe_legged_c3bf.biped.params import BipedParams
 from safe_legged_c3bf.biped.side import SIDES, Side
@@ -110,11 +108,8 @@ class BipedZmpController:
             self.model, self.omega, self.params.feedback, self.control_period
         )
         self._preview_offsets = gait.control_period * np.arange(self.balance.preview.n_preview + 1)
-        g = self.params.gains
-        self._kp = {"stance": g.leg_array("stance_kp"), "swing": g.leg_array("swing_kp")}
-        self._kd = {"stance": g.leg_array("stance_kd"), "swing": g.leg_array("swing_kd")}
-        hips = np.array([self.model.legs[side].hip_offset for side in SIDES])
-        self._pelvis_offset = hips.mean(axis=0)
+        self.targets = JointTargets(self.model, self.params)
+        self.gains = LegGains(self.params.gains)
         self.status = ControllerStatus()
         self.reset()
 
@@ -137,9 +132,7 @@ class BipedZmpController:
         self._t_last: float | None = None
         self.command.reset()
         self.schedule.reset()
-        self._q_des_prev: np.ndarray | None = None
-        self._dq_des_prev = np.zeros(12)
-        self._pelvis_filtered: np.ndarray | None = None
+        self.targets.reset()
         self.estimator.reset()
         self._adjust = np.zeros(2)
 
@@ -171,13 +164,11 @@ class BipedZmpController:
             n_ticks = int(clamp(round((t - self._t_last) / dt), 1, 10))
         self._t_last = t
 
-        self.command.update(command, n_ticks * dt)
-        meas = self.estimator.update(base, q, n_ticks * dt)
+        elapsed = n_ticks * dt
+        self.command.update(command, elapsed)
+        meas = self.estimator.update(base, q, elapsed)
         if self.schedule.advance(t, meas.feet, self.command):
             self.balance.reanchor(meas, self.schedule.step.zmp_start)
-
-        fb = self.params.feedback
-        gait = self.params.gait
 
         # ---- reference: ZMP from the footsteps -> preview control -> reference CoM/DCM
         zmp_ref = zmp_reference(self.schedule, self.command, t + self._preview_offsets)
@@ -193,52 +184,10 @@ class BipedZmpController:
 
         # ---- desired feet poses (odom) and the torso pose the legs are solved from
         feet = self._feet_targets(t, phase)
-        yaw_des = self._torso_yaw(feet)
-        rpy = meas.rpy
-        # Both legs are solved from the torso's (filtered) measured orientation, so the feet
-        # stay flat and the swing foot lands where planned however the torso leans; the stance
-        # hips then add offsets that turn the torso upright and to the desired heading
-        # (_torso_correction). The stance hips are anchored where they really are: the CoM
-        # moves by the ankle torques (ZMP), not by position servoing; the swing leg hangs
-        # from a low-passed pelvis so it does not react to its own reaction torques.
-        r_ik = rot_z(meas.tilt[2]) @ rot_y(meas.tilt[1]) @ rot_x(meas.tilt[0])
-        pelvis = meas.position + meas.rotation @ self._pelvis_offset
-        pelvis[:2] += 0.5 * n_ticks * dt * meas.com_velocity[:2]
-        if self._pelvis_filtered is None:
-            self._pelvis_filtered = pelvis.copy()
-        a = dt / (fb.swing_anchor_filter + dt) if fb.swing_anchor_filter > 0 else 1.0
-        self._pelvis_filtered += n_ticks * dt * meas.com_velocity * np.array([1.0, 1.0, 0.0])
-        self._pelvis_filtered += a * (pelvis - self._pelvis_filtered)
-        z_torso = self.schedule.ground_z + gait.com_height - (r_ik @ meas.com_local)[2]
-        p_torso = pelvis - r_ik @ self._pelvis_offset
-        p_torso[2] = z_torso
-        p_torso_swing = self._pelvis_filtered - r_ik @ self._pelvis_offset
-        p_torso_swing[2] = z_torso
-
-        # ---- inverse kinematics of both legs
-        q_des = np.zeros(12)
-        for side in SIDES:
-            origin = p_torso_swing if phase[side] is LegPhase.SWING else p_torso
-            foot_pos = r_ik.T @ (feet[side][:3] - origin)
-            foot_rot = r_ik.T @ rot_z(feet[side][3])
-            q_des[_LEG[side]] = self.model.leg_ik(side, foot_pos, foot_rot)
         weights = {side: self.schedule.stance_weight(t, side) for side in SIDES}
-        self._torso_correction(q_des, weights, rpy, wrap_angle(rpy[2] - yaw_des))
-        q_des = self.model.clip_to_limits(q_des)
-        if self._q_des_prev is None:
-            dq_des = np.zeros(12)
-        else:
-            dq_des = np.clip((q_des - self._q_des_prev) / (n_ticks * dt), -8.0, 8.0)
-        ddq_des = np.clip((dq_des - self._dq_des_prev) / (n_ticks * dt), -80.0, 80.0)
-        self._q_des_prev = q_des.copy()
-        self._dq_des_prev = dq_des.copy()
-
-        # ---- gains and feed-forward torques
-        kp, kd = np.zeros(12), np.zeros(12)
-        for side in SIDES:
-            w = weights[side]
-            kp[_LEG[side]] = self._kp["swing"] + w * (self._kp["stance"] - self._kp["swing"])
-            kd[_LEG[side]] = self._kd["swing"] + w * (self._kd["stance"] - self._kd["swing"])
+        ground_z = self.schedule.ground_z
+        q_des, dq_des, ddq_des = self.targets.solve(meas, feet, phase, weights, ground_z, elapsed)
+        kp, kd = self.gains.blend(weights)
         tau = self.feedforward.torques(meas, phase, feet, zmp_cmd, ddq_des)
         # the drivers hold q* for a whole tick: aim at the middle of it
         q_cmd = q_des + 0.5 * dt * dq_des
@@ -259,9 +208,8 @@ class BipedZmpController:
     # ------------------------------------------------------------------ internals
     def _hold(self, q: np.ndarray) -> JointCommand:
         """Safe command on invalid input: hold the last target (or the measured angles)."""
-        target = self._q_des_prev if self._q_des_prev is not None else np.nan_to_num(q)
-        kp = np.concatenate([self._kp["stance"]] * 2)
-        kd = np.concatenate([self._kd["stance"]] * 2)
+        target = self.targets.last if self.targets.last is not None else np.nan_to_num(q)
+        kp, kd = self.gains.stance()
         return JointCommand(self.joint_names, target, np.zeros(12), kp, kd, np.zeros(12))
 
     def _initialize(self, t: float, base: BaseState, q: np.ndarray) -> None:
@@ -280,28 +228,3 @@ class BipedZmpController:
         if step is not None and phase[step.swing] is LegPhase.SWING:
             feet[step.swing] = self.swing.foot_pose(step, t, self.schedule.ground_z)
         return feet
-
-    def _torso_correction(self, q_des, weights: dict, rpy: np.ndarray, yaw_err: float) -> None:
-        """Stance-hip offsets that turn the torso upright and to the desired heading.
-
-        The legs are solved in the torso's measured orientation, which by itself would accept
-        any lean; rotating the stance hips by gain x (measured roll, pitch, heading error)
-        pushes the torso back. Roll/pitch offsets are projected on each hip's yawed axes;
-        each leg's offsets are scaled by its stance weight (0 in swing, ramps at touchdown).
-        """
-        fb = self.params.feedback
-        err = np.array([fb.torso_roll_gain * rpy[0], fb.torso_pitch_gain * rpy[1]])
-        for side in SIDES:
-            w = weights[side]
-            if w <= 0.0:
-                continue
-            leg = q_des[_LEG[side]]
-            c, s = math.cos(leg[0]), math.sin(leg[0])
-            leg[0] += w * fb.torso_yaw_gain * yaw_err
-            leg[1] += w * (c * err[0] + s * err[1])
-            leg[2] += w * (-s * err[0] + c * err[1])
-
-    @staticmethod
-    def _torso_yaw(feet: dict[str, np.ndarray]) -> float:
-        a, b = float(feet["l"][3]), float(feet["r"][3])
-        return wrap_angle(a + 0.5 * wrap_angle(b - a))
