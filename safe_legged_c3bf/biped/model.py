@@ -36,6 +36,20 @@ def _floats(text: str | None, n: int = 3) -> np.ndarray:
     return np.array([float(v) for v in text.split()])
 
 
+def _inertial(link: ET.Element) -> tuple[float, np.ndarray, np.ndarray]:
+    """Mass (kg), CoM (3,) in the link frame and inertia tensor (3, 3, kg m^2) of a link."""
+    inertial = link.find("inertial")
+    i_el = inertial.find("inertia")
+    ixx, ixy, ixz, iyy, iyz, izz = (
+        float(i_el.get(k, 0.0)) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+    )
+    return (
+        float(inertial.find("mass").get("value")),
+        _floats(inertial.find("origin").get("xyz")),
+        np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]),
+    )
+
+
 @dataclass(frozen=True)
 class FootGeometry:
     """Sole rectangle in the foot frame (m).
@@ -98,15 +112,10 @@ class BipedModel:
                 if k == 0:
                     parent = joint.find("parent").get("link")
                     base = parent if base is None else base
-                child = links[joint.find("child").get("link")]
-                inertial = child.find("inertial")
-                masses.append(float(inertial.find("mass").get("value")))
-                coms.append(_floats(inertial.find("origin").get("xyz")))
-                i_el = inertial.find("inertia")
-                ixx, ixy, ixz, iyy, iyz, izz = (
-                    float(i_el.get(k, 0.0)) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
-                )
-                inertias.append(np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]))
+                mass, com, inertia = _inertial(links[joint.find("child").get("link")])
+                masses.append(mass)
+                coms.append(com)
+                inertias.append(inertia)
             origins = np.array(origins)
             zero = [1, 2, 5]  # roll/pitch at the hip, roll at the ankle coincide with the previous
             if np.any(np.abs(origins[zero]) > 1e-9) or np.any(np.abs(origins[3:5, :2]) > 1e-9):
