@@ -1,30 +1,34 @@
 """ZMP preview walking controller of the biped, closed around the measured base state.
 
-Per tick (``control_period``, 5 ms by default) :meth:`BipedZmpController.update`:
+:class:`BipedZmpController` composes the parts below; per tick (``control_period``, 5 ms by
+default) :meth:`BipedZmpController.update`:
 
-1. filters the velocity command (clipped to the limits, acceleration-limited);
-2. estimates the whole-body CoM, its velocity and the divergent component of motion (DCM,
-   capture point) from the base pose/twist and the joint angles (URDF mass model);
+1. filters the velocity command: clipped to the limits, acceleration-limited
+   (:mod:`command_filter`);
+2. estimates the whole-body CoM, its velocity, the divergent component of motion (DCM,
+   capture point) and the sole poses from the base pose/twist and the joint angles
+   (:mod:`state_estimate`);
 3. advances the gait: stand, or steps of double support (the ZMP moves onto the new support
-   foot) then single support (the other foot swings). Stance feet are taken where they are
-   *measured*, so the plan never drifts away from the real feet;
-4. re-plans the footsteps from the support foot and the command (``FootstepPlanner``) every
-   tick until the swing target is frozen;
-5. builds the ZMP reference over the preview horizon from those footsteps and runs the ZMP
-   preview controller (Kajita 2003), which gives the reference CoM, ZMP and DCM;
-6. DCM tracking (ankle strategy): desired ZMP = preview ZMP + (1 + k/omega) (DCM error),
-   clipped to the support polygon. The stance ankles are compliant (low PD gains) and get
-   the feed-forward torques J^T F of the LIPM ground reaction F = M (omega^2 (c - zmp), g)
-   applied at that ZMP, so they *produce* it;
-7. stepping strategy: when the DCM error exceeds what the ZMP can still correct inside the
-   sole, the excess predicted at touchdown is added to the swing target (capture point);
-8. legs: analytic IK from the measured (filtered) torso orientation, with the stance hips
-   anchored at the measured pelvis and the torso height at the LIPM height; stance-hip offsets
-   turn the torso upright and to the heading between the feet; the swing foot follows a
-   re-targetable min-jerk trajectory with inertia + gravity feed-forward.
+   foot) then single support (the other foot swings); stance feet are taken where they are
+   *measured*, so the plan never drifts away from the real feet (:mod:`gait_schedule`);
+4. builds the ZMP reference over the preview horizon from the footsteps the planner gives for
+   the command (:mod:`zmp_reference`, :mod:`footstep_planner`) and runs the ZMP preview
+   controller (Kajita 2003), which gives the reference CoM, ZMP and DCM (:mod:`balance`);
+5. DCM tracking (ankle strategy): desired ZMP = preview ZMP + (1 + k/omega) (DCM error),
+   clipped to the support polygon (:mod:`balance`); the compliant stance ankles get the
+   feed-forward torques of the LIPM ground reaction at that ZMP, so they *produce* it
+   (:mod:`feedforward`);
+6. re-plans the swing target until it is frozen and, when the DCM error exceeds what the
+   ZMP can still correct inside the sole, adds the excess predicted at touchdown to it
+   (stepping strategy); the swing foot follows a re-targetable min-jerk trajectory
+   (:mod:`swing`);
+7. solves both legs by analytic IK from the filtered torso orientation, with stance-hip
+   offsets that turn the torso upright and to the heading between the feet, and blends the
+   stance/swing PD gains (:mod:`joint_targets`).
 
-The output is a JointCommand of position targets, their rates, per-leg stance/swing PD gains
-(ramped at touchdown/lift-off) and feed-forward torques. No ROS dependency.
+The output is a JointCommand of position targets, their rates, per-leg PD gains (ramped at
+touchdown/lift-off) and feed-forward torques. No ROS dependency. Frames follow REP-103/105:
+positions in odom, the base twist in base_link; units m, s, rad, N m.
 """
 
 from __future__ import annotations
@@ -37,10 +41,7 @@ from safe_legged_c3bf.base_state import BaseState
 from safe_legged_c3bf.biped.balance import Balance
 from safe_legged_c3bf.biped.command_filter import CommandFilter
 from safe_legged_c3bf.biped.feedforward import FeedforwardTorques
-from safe_legged_c3bf.biped.footstep_planner import (
-    FootstepPlanner,
-    clamp,
-)
+from safe_legged_c3bf.biped.footstep_planner import FootstepPlanner, clamp
 from safe_legged_c3bf.biped.gait_schedule import GaitMode, GaitSchedule, LegPhase
 from safe_legged_c3bf.biped.joint_targets import JointTargets, LegGains
 from safe_legged_c3bf.biped.model import BipedModel
@@ -52,7 +53,6 @@ from safe_legged_c3bf.biped.zmp_reference import zmp_reference
 from safe_legged_c3bf.gait_controller import VelocityCommand
 from safe_legged_c3bf.joint_command import JointCommand
 
-_LEG = {"l": slice(0, 6), "r": slice(6, 12)}
 #: parameter file loaded by :meth:`BipedZmpController.from_config` by default
 DEFAULT_CONFIG = "biped_controller.yaml"
 
@@ -134,7 +134,6 @@ class BipedZmpController:
         self.schedule.reset()
         self.targets.reset()
         self.estimator.reset()
-        self._adjust = np.zeros(2)
 
     @property
     def mode(self) -> GaitMode:
@@ -157,13 +156,7 @@ class BipedZmpController:
         if not self._initialized or self._t_last is None or t < self._t_last - 1e-9:
             self._initialize(t, base, q)
         dt = self.control_period
-        if self._first_tick:
-            n_ticks = 1
-            self._first_tick = False
-        else:
-            n_ticks = int(clamp(round((t - self._t_last) / dt), 1, 10))
-        self._t_last = t
-
+        n_ticks = self._ticks_since_last(t)
         elapsed = n_ticks * dt
         self.command.update(command, elapsed)
         meas = self.estimator.update(base, q, elapsed)
@@ -180,7 +173,7 @@ class BipedZmpController:
         stance = [self.schedule.footstep(s) for s in SIDES if phase[s] is LegPhase.STANCE]
         zmp_cmd, dcm_err = self.balance.desired_zmp(meas.dcm, ref, stance)
         # ---- stepping strategy: move the swing target by the predicted DCM error at touchdown
-        self._adjust = self.swing.update_target(self.schedule.step, t, meas.dcm, self.command)
+        adjustment = self.swing.update_target(self.schedule.step, t, meas.dcm, self.command)
 
         # ---- desired feet poses (odom) and the torso pose the legs are solved from
         feet = self._feet_targets(t, phase)
@@ -200,7 +193,7 @@ class BipedZmpController:
             zmp_reference=zmp_ref[0].copy(),
             zmp_desired=zmp_cmd.copy(),
             dcm_error=dcm_err.copy(),
-            step_adjustment=self._adjust.copy(),
+            step_adjustment=adjustment,
             steps_taken=self.schedule.steps_taken,
         )
         return JointCommand(self.joint_names, q_cmd, dq_des, kp, kd, tau)
@@ -212,7 +205,18 @@ class BipedZmpController:
         kp, kd = self.gains.stance()
         return JointCommand(self.joint_names, target, np.zeros(12), kp, kd, np.zeros(12))
 
+    def _ticks_since_last(self, t: float) -> int:
+        """Control periods (1 to 10) since the last update: the preview advances by as many."""
+        if self._first_tick:
+            n_ticks = 1
+            self._first_tick = False
+        else:
+            n_ticks = int(clamp(round((t - self._t_last) / self.control_period), 1, 10))
+        self._t_last = t
+        return n_ticks
+
     def _initialize(self, t: float, base: BaseState, q: np.ndarray) -> None:
+        """Restart every part from this measurement, standing."""
         self.reset()
         self._initialized = True
         self._first_tick = True
