@@ -53,8 +53,8 @@ def test_commands_are_clipped_and_rate_limited():
     ctrl, base, q = standing_inputs()
     lim = ctrl.params.command
     ctrl.update(0.0, base, q, np.zeros(12), VelocityCommand(vx=5.0, vy=-5.0, yaw_rate=9.0))
-    np.testing.assert_allclose(ctrl._cmd_target, [lim.vx_max, -lim.vy_max, lim.yaw_rate_max])
-    assert abs(ctrl._cmd[0]) <= lim.accel_x * ctrl.control_period + 1e-12
+    np.testing.assert_allclose(ctrl.command.target, [lim.vx_max, -lim.vy_max, lim.yaw_rate_max])
+    assert abs(ctrl.command.velocity[0]) <= lim.accel_x * ctrl.control_period + 1e-12
     assert ctrl.mode == "walk"
 
 

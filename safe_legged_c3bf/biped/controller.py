@@ -1,88 +1,60 @@
 """ZMP preview walking controller of the biped, closed around the measured base state.
 
-Per tick (``control_period``, 5 ms by default) :meth:`BipedZmpController.update`:
+:class:`BipedZmpController` composes the parts below; per tick (``control_period``, 5 ms by
+default) :meth:`BipedZmpController.update`:
 
-1. filters the velocity command (clipped to the limits, acceleration-limited);
-2. estimates the whole-body CoM, its velocity and the divergent component of motion (DCM,
-   capture point) from the base pose/twist and the joint angles (URDF mass model);
+1. filters the velocity command: clipped to the limits, acceleration-limited
+   (:mod:`command_filter`);
+2. estimates the whole-body CoM, its velocity, the divergent component of motion (DCM,
+   capture point) and the sole poses from the base pose/twist and the joint angles
+   (:mod:`state_estimate`);
 3. advances the gait: stand, or steps of double support (the ZMP moves onto the new support
-   foot) then single support (the other foot swings). Stance feet are taken where they are
-   *measured*, so the plan never drifts away from the real feet;
-4. re-plans the footsteps from the support foot and the command (``FootstepPlanner``) every
-   tick until the swing target is frozen;
-5. builds the ZMP reference over the preview horizon from those footsteps and runs the ZMP
-   preview controller (Kajita 2003), which gives the reference CoM, ZMP and DCM;
-6. DCM tracking (ankle strategy): desired ZMP = preview ZMP + (1 + k/omega) (DCM error),
-   clipped to the support polygon. The stance ankles are compliant (low PD gains) and get
-   the feed-forward torques J^T F of the LIPM ground reaction F = M (omega^2 (c - zmp), g)
-   applied at that ZMP, so they *produce* it;
-7. stepping strategy: when the DCM error exceeds what the ZMP can still correct inside the
-   sole, the excess predicted at touchdown is added to the swing target (capture point);
-8. legs: analytic IK from the measured (filtered) torso orientation, with the stance hips
-   anchored at the measured pelvis and the torso height at the LIPM height; stance-hip offsets
-   turn the torso upright and to the heading between the feet; the swing foot follows a
-   re-targetable min-jerk trajectory with inertia + gravity feed-forward.
+   foot) then single support (the other foot swings); stance feet are taken where they are
+   *measured*, so the plan never drifts away from the real feet (:mod:`gait_schedule`);
+4. builds the ZMP reference over the preview horizon from the footsteps the planner gives for
+   the command (:mod:`zmp_reference`, :mod:`footstep_planner`) and runs the ZMP preview
+   controller (Kajita 2003), which gives the reference CoM, ZMP and DCM (:mod:`balance`);
+5. DCM tracking (ankle strategy): desired ZMP = preview ZMP + (1 + k/omega) (DCM error),
+   clipped to the support polygon (:mod:`balance`); the compliant stance ankles get the
+   feed-forward torques of the LIPM ground reaction at that ZMP, so they *produce* it
+   (:mod:`feedforward`);
+6. re-plans the swing target until it is frozen and, when the DCM error exceeds what the
+   ZMP can still correct inside the sole, adds the excess predicted at touchdown to it
+   (stepping strategy); the swing foot follows a re-targetable min-jerk trajectory
+   (:mod:`swing`);
+7. solves both legs by analytic IK from the filtered torso orientation, with stance-hip
+   offsets that turn the torso upright and to the heading between the feet, and blends the
+   stance/swing PD gains (:mod:`joint_targets`).
 
-The output is a JointCommand of position targets, their rates, per-leg stance/swing PD gains
-(ramped at touchdown/lift-off) and feed-forward torques. No ROS dependency.
+The output is a JointCommand of position targets, their rates, per-leg PD gains (ramped at
+touchdown/lift-off) and feed-forward torques. No ROS dependency. Frames follow REP-103/105:
+positions in odom, the base twist in base_link; units m, s, rad, N m.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from safe_legged_c3bf.base_state import BaseState
-from safe_legged_c3bf.biped.footstep_planner import (
-    Footstep,
-    FootstepPlanner,
-    clamp,
-    clip_to_polygon,
-    convex_hull,
-    other_side,
-    wrap_angle,
-)
-from safe_legged_c3bf.biped.leg_ik import rot_x, rot_y, rot_z, static_torques
-from safe_legged_c3bf.biped.lipm_preview import GRAVITY, ZmpPreviewController
-from safe_legged_c3bf.biped.model import SIDES, BipedModel
+from safe_legged_c3bf.biped.balance import Balance
+from safe_legged_c3bf.biped.command_filter import CommandFilter
+from safe_legged_c3bf.biped.feedforward import FeedforwardTorques
+from safe_legged_c3bf.biped.footstep_planner import FootstepPlanner, clamp
+from safe_legged_c3bf.biped.gait_schedule import GaitMode, GaitSchedule, LegPhase
+from safe_legged_c3bf.biped.joint_targets import JointTargets, LegGains
+from safe_legged_c3bf.biped.model import BipedModel
 from safe_legged_c3bf.biped.params import BipedParams
-from safe_legged_c3bf.biped.swing_trajectory import SwingTrajectory
+from safe_legged_c3bf.biped.side import SIDES, Side
+from safe_legged_c3bf.biped.state_estimate import StateEstimator
+from safe_legged_c3bf.biped.swing import SwingPlanner
+from safe_legged_c3bf.biped.zmp_reference import zmp_reference
 from safe_legged_c3bf.gait_controller import VelocityCommand
 from safe_legged_c3bf.joint_command import JointCommand
 
-_LEG = {"l": slice(0, 6), "r": slice(6, 12)}
 #: parameter file loaded by :meth:`BipedZmpController.from_config` by default
 DEFAULT_CONFIG = "biped_controller.yaml"
-
-
-@dataclass
-class _Step:
-    """One step of the walk: double support on both feet, then ``swing`` in the air."""
-
-    support: Footstep
-    swing_start: np.ndarray  # (x, y, z, yaw) of the swing foot at the start of the step
-    target: Footstep
-    t_start: float
-    double_support: float
-    single_support: float
-    zmp_start: np.ndarray
-    hold: float = 0.0  # time at the start of the double support the ZMP stays at zmp_start
-    trajectory: SwingTrajectory | None = None
-    frozen: bool = False
-
-    @property
-    def swing(self) -> str:
-        return other_side(self.support.side)
-
-    @property
-    def t_lift(self) -> float:
-        return self.t_start + self.double_support
-
-    @property
-    def t_end(self) -> float:
-        return self.t_lift + self.single_support
 
 
 @dataclass
@@ -90,8 +62,8 @@ class ControllerStatus:
     """Diagnostics of the last tick (for logging and tests).
 
     Attributes:
-        mode: 'stand' or 'walk'.
-        support: side of the support foot while walking ('' when standing).
+        mode: standing or walking.
+        support: the support foot while walking (None when standing).
         com_measured: (3,) CoM in odom.
         com_reference: (2,) preview CoM.
         zmp_reference: (2,) preview ZMP reference at this tick.
@@ -102,8 +74,8 @@ class ControllerStatus:
 
     """
 
-    mode: str = "stand"
-    support: str = ""
+    mode: GaitMode = GaitMode.STAND
+    support: Side | None = None
     com_measured: np.ndarray | None = None
     com_reference: np.ndarray | None = None
     zmp_reference: np.ndarray | None = None
@@ -123,25 +95,21 @@ class BipedZmpController:
         self.joint_names = list(self.model.joint_names)
         gait = self.params.gait
         self.control_period = gait.control_period
-        self.preview = ZmpPreviewController(
-            gait.control_period,
-            gait.com_height,
-            gait.preview_horizon,
-            q_e=gait.preview_q_e,
-            r=gait.preview_r,
-        )
-        self.omega = self.preview.omega
+        self.balance = Balance(gait, self.params.feedback, self.model.foot)
+        self.omega = self.balance.omega
         self.planner = FootstepPlanner(gait, self.params.steps)
-        self._preview_offsets = gait.control_period * np.arange(self.preview.n_preview + 1)
-        g = self.params.gains
-        self._kp = {"stance": g.leg_array("stance_kp"), "swing": g.leg_array("swing_kp")}
-        self._kd = {"stance": g.leg_array("stance_kd"), "swing": g.leg_array("swing_kd")}
-        hips = np.array([self.model.legs[side].hip_offset for side in SIDES])
-        self._pelvis_offset = hips.mean(axis=0)
-        foot = self.model.foot
-        self._sole_center = np.array(foot.center)
-        self._sole_half = np.array([foot.length / 2, foot.width / 2])
-        self._corner_signs = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], dtype=float)
+        self.command = CommandFilter(self.params.command)
+        self.schedule = GaitSchedule(gait, self.planner)
+        self.swing = SwingPlanner(
+            self.planner, gait, self.params.feedback, self.omega, self.model.foot
+        )
+        self.feedforward = FeedforwardTorques(self.model, self.params, self.planner, self.omega)
+        self.estimator = StateEstimator(
+            self.model, self.omega, self.params.feedback, self.control_period
+        )
+        self._preview_offsets = gait.control_period * np.arange(self.balance.preview.n_preview + 1)
+        self.targets = JointTargets(self.model, self.params)
+        self.gains = LegGains(self.params.gains)
         self.status = ControllerStatus()
         self.reset()
 
@@ -162,28 +130,15 @@ class BipedZmpController:
         """Forget all state; the next :meth:`update` re-initialises from the measurement."""
         self._initialized = False
         self._t_last: float | None = None
-        self._cmd = np.zeros(3)
-        self._mode = "stand"
-        self._step: _Step | None = None
-        self._feet: dict[str, np.ndarray] = {}
-        self._stand_zmp = (0.0, np.zeros(2), np.zeros(2))
-        self._ground_z = 0.0
-        self._q_des_prev: np.ndarray | None = None
-        self._dq_des_prev = np.zeros(12)
-        self._tilt = np.zeros(3)  # filtered roll, pitch and yaw of the torso
-        self._pelvis_filtered: np.ndarray | None = None
-        self._polygon_cache: tuple | None = None
-        self._moving = False
-        self._com_prev: np.ndarray | None = None
-        self._com_vel = np.zeros(3)
-        self._steps_taken = 0
-        self._adjust = np.zeros(2)
-        self._cp_error = np.zeros(2)
+        self.command.reset()
+        self.schedule.reset()
+        self.targets.reset()
+        self.estimator.reset()
 
     @property
-    def mode(self) -> str:
-        """'stand' or 'walk'."""
-        return self._mode
+    def mode(self) -> GaitMode:
+        """Standing or walking (a StrEnum: equal to 'stand' or 'walk')."""
+        return self.schedule.mode
 
     def update(
         self,
@@ -201,505 +156,79 @@ class BipedZmpController:
         if not self._initialized or self._t_last is None or t < self._t_last - 1e-9:
             self._initialize(t, base, q)
         dt = self.control_period
-        if self._first_tick:
-            n_ticks = 1
-            self._first_tick = False
-        else:
-            n_ticks = int(clamp(round((t - self._t_last) / dt), 1, 10))
-        self._t_last = t
-
-        self._filter_command(command, n_ticks * dt)
-        meas = self._measure(base, q, n_ticks * dt)
-        self._advance_gait(t, meas)
-
-        fb = self.params.feedback
-        gait = self.params.gait
+        n_ticks = self._ticks_since_last(t)
+        elapsed = n_ticks * dt
+        self.command.update(command, elapsed)
+        meas = self.estimator.update(base, q, elapsed)
+        if self.schedule.advance(t, meas.feet, self.command):
+            self.balance.reanchor(meas, self.schedule.step.zmp_start)
 
         # ---- reference: ZMP from the footsteps -> preview control -> reference CoM/DCM
-        zmp_ref = self._zmp_reference(t + self._preview_offsets)
-        for _ in range(n_ticks):
-            self.preview.step(zmp_ref)
-        ref = self.preview.state.copy()
-        zmp_model = self.preview.zmp
-        dcm_ref = ref[0] + ref[1] / self.omega
+        zmp_ref = zmp_reference(self.schedule, self.command, t + self._preview_offsets)
+        ref = self.balance.follow(zmp_ref, n_ticks)
 
         # ---- DCM (capture point) tracking: desired ZMP, kept inside the support polygon
-        dcm_err = meas["dcm"] - dcm_ref
-        zmp_des = zmp_model + (1.0 + fb.dcm_gain / self.omega) * dcm_err
-        phase = self._phases(t)
-        for side in SIDES:
-            if phase[side] == "stance":  # a foot on the ground is where it is measured
-                self._feet[side][[0, 1, 3]] = meas["feet"][side][[0, 1, 3]]
-        zmp_cmd = clip_to_polygon(zmp_des, self._support_polygon(phase, fb.support_margin))
+        phase = self.schedule.phases(t)
+        self.schedule.track_stance_feet(phase, meas.feet)
+        stance = [self.schedule.footstep(s) for s in SIDES if phase[s] is LegPhase.STANCE]
+        zmp_cmd, dcm_err = self.balance.desired_zmp(meas.dcm, ref, stance)
         # ---- stepping strategy: move the swing target by the predicted DCM error at touchdown
-        self._update_swing_target(t, meas["dcm"])
+        adjustment = self.swing.update_target(self.schedule.step, t, meas.dcm, self.command)
 
         # ---- desired feet poses (odom) and the torso pose the legs are solved from
-        feet, phase = self._feet_targets(t)
-        yaw_des = self._torso_yaw(feet)
-        rpy = base.rpy
-        alpha = dt / (fb.tilt_filter + dt) if fb.tilt_filter > 0 else 1.0
-        self._tilt[:2] += alpha * (rpy[:2] - self._tilt[:2])
-        self._tilt[2] += alpha * wrap_angle(rpy[2] - self._tilt[2])
-        # Both legs are solved from the torso's (filtered) measured orientation, so the feet
-        # stay flat and the swing foot lands where planned however the torso leans; the stance
-        # hips then add offsets that turn the torso upright and to the desired heading
-        # (_torso_correction). The stance hips are anchored where they really are: the CoM
-        # moves by the ankle torques (ZMP), not by position servoing; the swing leg hangs
-        # from a low-passed pelvis so it does not react to its own reaction torques.
-        r_ik = rot_z(self._tilt[2]) @ rot_y(self._tilt[1]) @ rot_x(self._tilt[0])
-        pelvis = meas["position"] + meas["rotation"] @ self._pelvis_offset
-        pelvis[:2] += 0.5 * n_ticks * dt * meas["com_vel"][:2]
-        if self._pelvis_filtered is None:
-            self._pelvis_filtered = pelvis.copy()
-        a = dt / (fb.swing_anchor_filter + dt) if fb.swing_anchor_filter > 0 else 1.0
-        self._pelvis_filtered += n_ticks * dt * meas["com_vel"] * np.array([1.0, 1.0, 0.0])
-        self._pelvis_filtered += a * (pelvis - self._pelvis_filtered)
-        z_torso = self._ground_z + gait.com_height - (r_ik @ meas["com_local"])[2]
-        p_torso = pelvis - r_ik @ self._pelvis_offset
-        p_torso[2] = z_torso
-        p_torso_swing = self._pelvis_filtered - r_ik @ self._pelvis_offset
-        p_torso_swing[2] = z_torso
-
-        # ---- inverse kinematics of both legs
-        q_des = np.zeros(12)
-        for side in SIDES:
-            origin = p_torso_swing if phase[side] == "swing" else p_torso
-            foot_pos = r_ik.T @ (feet[side][:3] - origin)
-            foot_rot = r_ik.T @ rot_z(feet[side][3])
-            q_des[_LEG[side]] = self.model.leg_ik(side, foot_pos, foot_rot)
-        weights = {side: self._stance_weight(t, side) for side in SIDES}
-        self._torso_correction(q_des, weights, rpy, wrap_angle(rpy[2] - yaw_des))
-        q_des = self.model.clip_to_limits(q_des)
-        if self._q_des_prev is None:
-            dq_des = np.zeros(12)
-        else:
-            dq_des = np.clip((q_des - self._q_des_prev) / (n_ticks * dt), -8.0, 8.0)
-        ddq_des = np.clip((dq_des - self._dq_des_prev) / (n_ticks * dt), -80.0, 80.0)
-        self._q_des_prev = q_des.copy()
-        self._dq_des_prev = dq_des.copy()
-
-        # ---- gains and feed-forward torques
-        kp, kd = np.zeros(12), np.zeros(12)
-        for side in SIDES:
-            w = weights[side]
-            kp[_LEG[side]] = self._kp["swing"] + w * (self._kp["stance"] - self._kp["swing"])
-            kd[_LEG[side]] = self._kd["swing"] + w * (self._kd["stance"] - self._kd["swing"])
-        tau = self._feedforward(meas, phase, feet, zmp_cmd, ddq_des)
+        feet = self._feet_targets(t, phase)
+        weights = {side: self.schedule.stance_weight(t, side) for side in SIDES}
+        ground_z = self.schedule.ground_z
+        q_des, dq_des, ddq_des = self.targets.solve(meas, feet, phase, weights, ground_z, elapsed)
+        kp, kd = self.gains.blend(weights)
+        tau = self.feedforward.torques(meas, phase, feet, zmp_cmd, ddq_des)
         # the drivers hold q* for a whole tick: aim at the middle of it
         q_cmd = q_des + 0.5 * dt * dq_des
 
         self.status = ControllerStatus(
-            mode=self._mode,
-            support=self._step.support.side if self._step is not None else "",
-            com_measured=meas["com"].copy(),
-            com_reference=ref[0].copy(),
+            mode=self.schedule.mode,
+            support=self.schedule.step.support.side if self.schedule.step is not None else None,
+            com_measured=meas.com.copy(),
+            com_reference=ref.com.copy(),
             zmp_reference=zmp_ref[0].copy(),
             zmp_desired=zmp_cmd.copy(),
             dcm_error=dcm_err.copy(),
-            step_adjustment=self._adjust.copy(),
-            steps_taken=self._steps_taken,
+            step_adjustment=adjustment,
+            steps_taken=self.schedule.steps_taken,
         )
         return JointCommand(self.joint_names, q_cmd, dq_des, kp, kd, tau)
 
     # ------------------------------------------------------------------ internals
     def _hold(self, q: np.ndarray) -> JointCommand:
         """Safe command on invalid input: hold the last target (or the measured angles)."""
-        target = self._q_des_prev if self._q_des_prev is not None else np.nan_to_num(q)
-        kp = np.concatenate([self._kp["stance"]] * 2)
-        kd = np.concatenate([self._kd["stance"]] * 2)
+        target = self.targets.last if self.targets.last is not None else np.nan_to_num(q)
+        kp, kd = self.gains.stance()
         return JointCommand(self.joint_names, target, np.zeros(12), kp, kd, np.zeros(12))
 
+    def _ticks_since_last(self, t: float) -> int:
+        """Control periods (1 to 10) since the last update: the preview advances by as many."""
+        if self._first_tick:
+            n_ticks = 1
+            self._first_tick = False
+        else:
+            n_ticks = int(clamp(round((t - self._t_last) / self.control_period), 1, 10))
+        self._t_last = t
+        return n_ticks
+
     def _initialize(self, t: float, base: BaseState, q: np.ndarray) -> None:
+        """Restart every part from this measurement, standing."""
         self.reset()
         self._initialized = True
         self._first_tick = True
         self._t_last = t
-        meas = self._measure(base, q, 0.0)
-        for side in SIDES:
-            pose = meas["feet"][side].copy()
-            self._feet[side] = pose
-        self._ground_z = float(np.mean([self._feet[s][2] for s in SIDES]))
-        mid = self._stand_midpoint()
-        self._stand_zmp = (t, mid, mid)
-        self.preview.reset(meas["com"][:2])
-        self._tilt = base.rpy.copy()
-        self._mode = "stand"
-        self._step = None
+        meas = self.estimator.initialize(base, q)
+        self.schedule.initialize(t, meas.feet)
+        self.balance.reset(meas.com[:2])
 
-    def _filter_command(self, command: VelocityCommand, dt: float) -> None:
-        lim = self.params.command
-        target = lim.clip(command.vx, command.vy, command.yaw_rate)
-        rates = (lim.accel_x * dt, lim.accel_y * dt, lim.accel_yaw * dt)
-        current = self._cmd.tolist()
-        self._cmd = np.array(
-            [c + clamp(float(g) - c, -r, r) for c, g, r in zip(current, target, rates, strict=True)]
-        )
-        self._cmd_target = target
-        self._moving = max(abs(float(v)) for v in (*target, *self._cmd)) > 1e-4
-
-    def _measure(self, base: BaseState, q: np.ndarray, dt: float) -> dict:
-        rot = base.rotation
-        pos = base.position
-        frames = {side: self.model.leg_frames(side, q[_LEG[side]]) for side in SIDES}
-        com_local = self.model.com_from_frames(frames)
-        com = pos + rot @ com_local
-        if self._com_prev is not None and dt > 0:
-            raw = (com - self._com_prev) / dt
-            tc = self.params.feedback.com_velocity_filter
-            alpha = dt / (tc + dt) if tc > 0 else 1.0
-            self._com_vel = self._com_vel + alpha * (raw - self._com_vel)
-        elif self._com_prev is None:
-            omega_w = base.angular_velocity_world
-            self._com_vel = base.linear_velocity_world + np.cross(omega_w, rot @ com_local)
-        self._com_prev = com.copy()
-        feet = {}
-        for side in SIDES:
-            f = frames[side]
-            p = pos + rot @ f.foot_position
-            r = rot @ f.foot_rotation
-            feet[side] = np.array([p[0], p[1], p[2], math.atan2(r[1, 0], r[0, 0])])
-        return {
-            "rotation": rot,
-            "position": pos,
-            "frames": frames,
-            "com_local": com_local,
-            "com": com,
-            "com_vel": self._com_vel.copy(),
-            "dcm": com[:2] + self._com_vel[:2] / self.omega,
-            "feet": feet,
-        }
-
-    def _footstep(self, side: str) -> Footstep:
-        pose = self._feet[side]
-        return Footstep(side, float(pose[0]), float(pose[1]), float(pose[3]))
-
-    def _stand_midpoint(self) -> np.ndarray:
-        return 0.5 * sum(self.planner.zmp_point(self._footstep(s)) for s in SIDES)
-
-    def _stand_zmp_at(self, times: np.ndarray) -> np.ndarray:
-        t0, start, end = self._stand_zmp
-        dur = self.params.gait.stop_double_support
-        a = np.clip((times - t0) / dur, 0.0, 1.0)[:, None]
-        return start + a * (end - start)
-
-    def _wants_to_move(self) -> bool:
-        return self._moving
-
-    def _advance_gait(self, t: float, meas: dict) -> None:
-        gait = self.params.gait
-        if self._mode == "stand":
-            # follow the measured sole height while both feet are down (ground level in odom)
-            z = float(np.mean([meas["feet"][s][2] for s in SIDES]))
-            self._ground_z += 0.05 * (z - self._ground_z)
-            for side in SIDES:
-                self._feet[side][2] = self._ground_z
-            if not self._wants_to_move():
-                return
-            swing = self.planner.first_swing_side(self._cmd_target)
-            support = self._footstep(other_side(swing))
-            zmp_now = self._stand_zmp_at(np.array([t]))[0]
-            ds = gait.start_delay + gait.start_double_support
-            self._step = self._new_step(support, t, ds, zmp_now)
-            self._step.hold = gait.start_delay
-            self._mode = "walk"
-            return
-        step = self._step
-        if t < step.t_end - 1e-9:
-            return
-        # touchdown: the landed foot's measured pose becomes the new support
-        landed_side = step.swing
-        landed = meas["feet"][landed_side].copy()
-        target = step.target
-        # keep the plan's heading/height but take the measured position and yaw
-        self._feet[landed_side] = np.array([landed[0], landed[1], self._ground_z, landed[3]])
-        self._steps_taken += 1
-        new_support = self._footstep(landed_side)
-        old_support = step.support
-        if not self._wants_to_move() and self.planner.is_aligned(old_support, target):
-            self._mode = "stand"
-            self._step = None
-            start = self.planner.zmp_point(new_support)
-            self._stand_zmp = (step.t_end, start, self._stand_midpoint())
-            return
-        zmp_start = self.planner.zmp_point(old_support)
-        self._step = self._new_step(new_support, step.t_end, gait.double_support, zmp_start)
-        # Re-anchor the reference on the real robot when it has drifted from it (a push, a
-        # slip, an adjusted step): the preview then plans from the measured CoM state.
-        fb = self.params.feedback
-        err = meas["dcm"] - self.preview.dcm
-        if fb.reference_reset > 0.0 and math.hypot(err[0], err[1]) > fb.reference_reset:
-            com, vel = meas["com"][:2], meas["com_vel"][:2]
-            self.preview.reset(com, vel, self.omega**2 * (com - zmp_start))
-
-    def _new_step(self, support: Footstep, t0: float, ds: float, zmp_start) -> _Step:
-        gait = self.params.gait
-        swing = other_side(support.side)
-        target = self._plan_target(support)
-        return _Step(
-            support=support,
-            swing_start=self._feet[swing].copy(),
-            target=target,
-            t_start=t0,
-            double_support=ds,
-            single_support=gait.single_support,
-            zmp_start=np.asarray(zmp_start, dtype=float),
-        )
-
-    def _plan_target(self, support: Footstep) -> Footstep:
-        if self._wants_to_move():
-            return self.planner.next_step(support, self._cmd)
-        return self.planner.aligned_step(support)
-
-    def _nominal_dcm_at_touchdown(self, support: Footstep, target: Footstep) -> np.ndarray:
-        """Capture point the footstep plan expects when ``target`` touches down (odom, (2,)).
-
-        Backward recursion over the planned footsteps with the ZMP at each sole centre for a
-        whole step period (Englsberger's DCM plan): xi_k = z_k + (xi_{k+1} - z_k) e^(-omega T),
-        ending at the last footstep (or between the feet when stopping).
-        """
-        zp = self.planner.zmp_point
-        if self._wants_to_move():
-            future = [target, *self.planner.plan(target, self._cmd, 3)]
-            xi = zp(future[-1])
-        else:
-            future = [target]
-            xi = 0.5 * (zp(support) + zp(target))
-        decay = math.exp(-self.omega * self.params.gait.step_period)
-        for f in reversed(future[:-1]):
-            z = zp(f)
-            xi = z + (xi - z) * decay
-        return xi
-
-    def _update_swing_target(self, t: float, dcm: np.ndarray) -> None:
-        """Re-plan the swing target and add the capture-point step adjustment.
-
-        The footstep plan predicts the capture point now, xi_nom = z + (xi_td - z) e^(-omega T)
-        (z: support sole centre, xi_td: planned capture point at touchdown in T s). Per axis of
-        the support foot the ankles can still remove an error up to ``room``, the distance from
-        the sole centre to its edge (minus the margin); the part beyond it grows as
-        (error - room) exp(omega T) until touchdown, and the swing target moves by
-        ``step_adjust_gain`` times that predicted excess, so the next support takes it over.
-        """
-        step = self._step
-        self._adjust = np.zeros(2)
-        if step is None or step.frozen:
-            return
-        gait, fb = self.params.gait, self.params.feedback
-        nominal = self._plan_target(step.support)
-        target = nominal
-        if t >= step.t_lift and fb.step_adjust_gain > 0:
-            remaining = max(step.t_end - t, 0.0)
-            support = step.support
-            z = self.planner.zmp_point(support)
-            xi_td = self._nominal_dcm_at_touchdown(support, nominal)
-            xi_nom = z + (xi_td - z) * math.exp(-self.omega * remaining)
-            c, s_ = math.cos(support.yaw), math.sin(support.yaw)
-            d = dcm - xi_nom
-            err = np.array([c * d[0] + s_ * d[1], -s_ * d[0] + c * d[1]])
-            room = np.maximum(self._sole_half - fb.support_margin, 0.0)
-            excess = np.sign(err) * np.maximum(np.abs(err) - room, 0.0)
-            local = fb.step_adjust_gain * excess * math.exp(self.omega * remaining)
-            adjust = np.array([c * local[0] - s_ * local[1], s_ * local[0] + c * local[1]])
-            norm = math.hypot(adjust[0], adjust[1])
-            if norm > fb.max_step_adjust:
-                adjust *= fb.max_step_adjust / norm
-            target = self.planner.clamp(step.support, nominal.moved(adjust))
-            self._adjust = target.xy - nominal.xy
-            self._cp_error = err
-        step.target = target
-        if t >= step.t_lift + gait.replan_until * step.single_support:
-            step.frozen = True
-
-    def _zmp_reference(self, times: np.ndarray) -> np.ndarray:
-        """ZMP reference (len(times), 2) from the current step and the planned footsteps."""
-        if self._mode == "stand":
-            return self._stand_zmp_at(times)
-        gait = self.params.gait
-        step = self._step
-        zp = self.planner.zmp_point
-        knot_t = [step.t_start, step.t_start + step.hold, step.t_lift]
-        knot_p = [step.zmp_start, step.zmp_start, zp(step.support)]
-        t_end = step.t_end
-        horizon_end = times[-1]
-        if not self._wants_to_move():
-            # finish the current step (and one aligning step if needed), then stand
-            last, prev = step.target, step.support
-            if not self.planner.is_aligned(prev, last):
-                nxt = self.planner.aligned_step(last)
-                knot_t += [t_end, t_end + gait.double_support]
-                knot_p += [zp(prev), zp(last)]
-                t_end += gait.step_period
-                prev, last = last, nxt
-            knot_t += [t_end, t_end + gait.stop_double_support]
-            mid = 0.5 * (zp(prev) + zp(last))
-            knot_p += [zp(prev), mid]
-        else:
-            footsteps = [step.target]
-            n_more = int(np.ceil((horizon_end - t_end) / gait.step_period)) + 1
-            footsteps += self.planner.plan(step.target, self._cmd, max(n_more, 0))
-            prev = step.support
-            for f in footsteps:
-                knot_t += [t_end, t_end + gait.double_support]
-                knot_p += [zp(prev), zp(f)]
-                t_end += gait.step_period
-                prev = f
-                if t_end - gait.single_support > horizon_end:
-                    break
-        knot_t = np.asarray(knot_t)
-        knot_p = np.asarray(knot_p)
-        out = np.empty((times.size, 2))
-        out[:, 0] = np.interp(times, knot_t, knot_p[:, 0])
-        out[:, 1] = np.interp(times, knot_t, knot_p[:, 1])
-        return out
-
-    def _phases(self, t: float) -> dict[str, str]:
-        """'stance' or 'swing' for each leg at time ``t``."""
-        phase = {side: "stance" for side in SIDES}
-        if self._mode == "walk" and t >= self._step.t_lift:
-            phase[self._step.swing] = "swing"
-        return phase
-
-    def _support_polygon(self, phase: dict[str, str], margin: float) -> np.ndarray:
-        """Convex support polygon (k, 2) of the stance soles, shrunk by ``margin``."""
-        stance = tuple(side for side in SIDES if phase[side] == "stance")
-        key = (stance, margin) + tuple(
-            round(float(v), 3) for side in stance for v in self._feet[side][[0, 1, 3]]
-        )
-        if self._polygon_cache is not None and self._polygon_cache[0] == key:
-            return self._polygon_cache[1]
-        half = np.maximum(self._sole_half - margin, 1e-3)
-        corners = self._sole_center + self._corner_signs * half
-        pts = []
-        for side in stance:
-            fs = self._footstep(side)
-            pts.extend(fs.to_world(c) for c in corners)
-        polygon = convex_hull(np.array(pts))
-        self._polygon_cache = (key, polygon)
-        return polygon
-
-    def _feet_targets(self, t: float):
-        """Desired (x, y, z, yaw) of both feet and the leg phases."""
-        feet, phase = {}, {}
-        for side in SIDES:
-            feet[side] = self._feet[side].copy()
-            phase[side] = "stance"
-        step = self._step
-        if self._mode == "walk" and t >= step.t_lift:
-            gait = self.params.gait
-            if step.trajectory is None:
-                step.trajectory = SwingTrajectory(
-                    step.swing_start,
-                    step.t_lift,
-                    step.single_support,
-                    gait.step_height,
-                    gait.swing_lift_fraction,
-                    gait.swing_land_fraction,
-                )
-            target = np.array([step.target.x, step.target.y, self._ground_z, step.target.yaw])
-            pose, _ = step.trajectory.sample(t, target)
-            feet[step.swing] = pose
-            phase[step.swing] = "swing"
-        return feet, phase
-
-    def _stance_weight(self, t: float, side: str) -> float:
-        """1 for a loaded stance leg, 0 for a swing leg, ramps around touchdown/lift-off."""
-        step = self._step
-        if self._mode != "walk" or step is None:
-            return 1.0
-        gait = self.params.gait
-        if side == step.swing:
-            if t >= step.t_lift:
-                return 0.0
-            down = clamp((step.t_lift - t) / gait.liftoff_blend, 0.0, 1.0)
-            up = 1.0
-            if self._steps_taken > 0:  # this foot touched down at t_start
-                up = clamp((t - step.t_start) / gait.touchdown_blend, 0.0, 1.0)
-            return min(up, down)
-        # the support foot touched down at t_start (except for the very first step)
-        if step.hold > 0.0:
-            return 1.0
-        return clamp((t - step.t_start) / gait.touchdown_blend, 0.0, 1.0)
-
-    def _torso_correction(self, q_des, weights: dict, rpy: np.ndarray, yaw_err: float) -> None:
-        """Stance-hip offsets that turn the torso upright and to the desired heading.
-
-        The legs are solved in the torso's measured orientation, which by itself would accept
-        any lean; rotating the stance hips by gain x (measured roll, pitch, heading error)
-        pushes the torso back. Roll/pitch offsets are projected on each hip's yawed axes;
-        each leg's offsets are scaled by its stance weight (0 in swing, ramps at touchdown).
-        """
-        fb = self.params.feedback
-        err = np.array([fb.torso_roll_gain * rpy[0], fb.torso_pitch_gain * rpy[1]])
-        for side in SIDES:
-            w = weights[side]
-            if w <= 0.0:
-                continue
-            leg = q_des[_LEG[side]]
-            c, s = math.cos(leg[0]), math.sin(leg[0])
-            leg[0] += w * fb.torso_yaw_gain * yaw_err
-            leg[1] += w * (c * err[0] + s * err[1])
-            leg[2] += w * (-s * err[0] + c * err[1])
-
-    @staticmethod
-    def _torso_yaw(feet: dict[str, np.ndarray]) -> float:
-        a, b = float(feet["l"][3]), float(feet["r"][3])
-        return wrap_angle(a + 0.5 * wrap_angle(b - a))
-
-    def _feedforward(self, meas, phase, feet, zmp_cmd, ddq_des) -> np.ndarray:
-        """Feed-forward joint torques.
-
-        Every leg carries its own weight; the stance legs carry the ground reaction that the
-        LIPM needs for the commanded ZMP, F = M (omega^2 (c - zmp), g), applied at the commanded
-        ZMP (split between the feet in double support) -- which is what makes the compliant
-        stance ankles produce that ZMP; the swing leg gets its inertia times the desired joint
-        acceleration.
-        """
-        tau = np.zeros(12)
-        scale = self.params.gains.feedforward
-        if scale == 0.0:
-            return tau
-        mass = self.model.total_mass
-        horizontal = self.omega**2 * (meas["com"][:2] - zmp_cmd)
-        force = mass * np.array([horizontal[0], horizontal[1], GRAVITY])
-        stance = [s for s in SIDES if phase[s] == "stance"]
-        rot, pos = meas["rotation"], meas["position"]
-        gravity_local = rot.T @ np.array([0.0, 0.0, -GRAVITY])
-        for side in SIDES:
-            frames = meas["frames"][side]
-            tau[_LEG[side]] = self.model.leg_gravity_torques(side, frames, gravity_local)
-            if phase[side] == "swing" and self.params.gains.inertia_feedforward > 0.0:
-                inertia = self.model.leg_mass_matrix(side, frames)
-                tau[_LEG[side]] += (
-                    self.params.gains.inertia_feedforward * inertia @ ddq_des[_LEG[side]]
-                )
-        cops, shares = {}, {}
-        if len(stance) == 1:
-            cops[stance[0]] = zmp_cmd
-            shares[stance[0]] = 1.0
-        else:
-            pl = self.planner.zmp_point(self._footstep("l"))
-            pr = self.planner.zmp_point(self._footstep("r"))
-            seg = pr - pl
-            alpha = clamp(float((zmp_cmd - pl) @ seg) / max(float(seg @ seg), 1e-9), 0.0, 1.0)
-            shares = {"l": 1.0 - alpha, "r": alpha}
-            residual = zmp_cmd - (pl + alpha * seg)
-            margin = self.params.feedback.support_margin
-            for side, p in (("l", pl), ("r", pr)):
-                cops[side] = self._clip_to_foot(side, feet[side], p + residual, margin)
-        for side in stance:
-            cop = np.array([cops[side][0], cops[side][1], feet[side][2]])
-            f_local = rot.T @ (shares[side] * force)
-            cop_local = rot.T @ (cop - pos)
-            tau[_LEG[side]] += static_torques(meas["frames"][side], f_local, cop_local)
-        return scale * tau
-
-    def _clip_to_foot(self, side: str, pose: np.ndarray, point: np.ndarray, margin: float):
-        foot = self.model.foot
-        fs = Footstep(side, float(pose[0]), float(pose[1]), float(pose[3]))
-        local = fs.to_local(point)
-        hx = max(foot.length / 2 - margin, 0.0)
-        hy = max(foot.width / 2 - margin, 0.0)
-        local[0] = clamp(local[0], foot.center[0] - hx, foot.center[0] + hx)
-        local[1] = clamp(local[1], foot.center[1] - hy, foot.center[1] + hy)
-        return fs.to_world(local)
+    def _feet_targets(self, t: float, phase: dict[Side, LegPhase]) -> dict[Side, np.ndarray]:
+        """Desired (x, y, z, yaw) of both soles in odom: stance feet stay, the swing foot moves."""
+        feet = {side: self.schedule.feet[side].copy() for side in SIDES}
+        step = self.schedule.step
+        if step is not None and phase[step.swing] is LegPhase.SWING:
+            feet[step.swing] = self.swing.foot_pose(step, t, self.schedule.ground_z)
+        return feet

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from safe_legged_c3bf.biped.params import GaitParams, StepLimits
+from safe_legged_c3bf.biped.side import Side
 
 
 def wrap_angle(a: float) -> float:
@@ -29,34 +30,31 @@ def clamp(x: float, lo: float, hi: float) -> float:
     return lo if x < lo else hi if x > hi else x
 
 
-def side_sign(side: str) -> float:
-    """+1 for the left foot, -1 for the right foot."""
-    if side not in ("l", "r"):
-        raise ValueError(f"foot side must be 'l' or 'r', not {side!r}")
-    return 1.0 if side == "l" else -1.0
-
-
-def other_side(side: str) -> str:
-    """The opposite foot."""
-    return "r" if side == "l" else "l"
-
-
 @dataclass(frozen=True)
 class Footstep:
     """A foot placement on flat ground: the sole point below the ankle and the foot heading.
 
     Attributes:
-        side: 'l' or 'r'.
+        side: which foot (a plain 'l' or 'r' is converted to :class:`Side`).
         x: position in odom (m).
         y: position in odom (m).
-        yaw: heading (rad).
+        yaw: heading about odom z (rad).
 
     """
 
-    side: str
+    side: Side
     x: float
     y: float
     yaw: float
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.side, Side):  # raises ValueError for anything but 'l', 'r'
+            object.__setattr__(self, "side", Side(self.side))
+
+    @classmethod
+    def from_pose(cls, side: Side, pose: np.ndarray) -> Footstep:
+        """The footstep of a sole pose (x, y, z, yaw) in odom (z is dropped)."""
+        return cls(side, float(pose[0]), float(pose[1]), float(pose[3]))
 
     @property
     def xy(self) -> np.ndarray:
@@ -96,7 +94,7 @@ class FootstepPlanner:
     def clamp(self, support: Footstep, step: Footstep) -> Footstep:
         """Project ``step`` into the region reachable from ``support``."""
         lim = self.limits
-        sigma = side_sign(step.side)  # +1: the new foot lies to the left of the support
+        sigma = step.side.sign  # +1: the new foot lies to the left of the support
         dx, dy, dyaw = self.relative(support, step)
         dx = clamp(float(dx), -lim.max_backward, lim.max_forward)
         dy = sigma * clamp(sigma * float(dy), lim.min_width, lim.max_width)
@@ -107,7 +105,7 @@ class FootstepPlanner:
     def is_feasible(self, support: Footstep, step: Footstep, tol: float = 1e-6) -> bool:
         """Return True when ``step`` lies in the region reachable from ``support``."""
         lim = self.limits
-        sigma = side_sign(step.side)
+        sigma = step.side.sign
         dx, dy, dyaw = self.relative(support, step)
         return bool(
             -lim.max_backward - tol <= dx <= lim.max_forward + tol
@@ -120,7 +118,7 @@ class FootstepPlanner:
         """The footstep after ``support`` for the command (vx, vy, yaw_rate)."""
         period = self.gait.step_period
         half = 0.5 * self.gait.step_width
-        s = side_sign(support.side)
+        s = support.side.sign
         # walking frame midway between the feet, advanced by one step of the command
         body = support.to_world(np.array([0.0, -s * half]))
         dyaw = float(command[2]) * period
@@ -130,8 +128,14 @@ class FootstepPlanner:
         body = body + np.array([c * vx - sn * vy, sn * vx + c * vy])
         yaw = support.yaw + dyaw
         foot = body + (-s * half) * np.array([-math.sin(yaw), math.cos(yaw)])
-        step = Footstep(other_side(support.side), float(foot[0]), float(foot[1]), wrap_angle(yaw))
+        step = Footstep(support.side.other, float(foot[0]), float(foot[1]), wrap_angle(yaw))
         return self.clamp(support, step)
+
+    def next_target(self, support: Footstep, command: np.ndarray, moving: bool) -> Footstep:
+        """The footstep after ``support``: for ``command`` when ``moving``, else aligning."""
+        if moving:
+            return self.next_step(support, command)
+        return self.aligned_step(support)
 
     def plan(self, support: Footstep, command: np.ndarray, count: int) -> list[Footstep]:
         """The next ``count`` footsteps after ``support`` (alternating sides)."""
@@ -156,18 +160,18 @@ class FootstepPlanner:
 
     def zmp_point(self, step: Footstep) -> np.ndarray:
         """ZMP reference point (2,) of a foot: sole centre, shifted inwards."""
-        inward = -side_sign(step.side) * self.gait.zmp_inward
+        inward = -step.side.sign * self.gait.zmp_inward
         return step.to_world(np.array([self.gait.zmp_offset_x, inward]))
 
     @staticmethod
-    def first_swing_side(command: np.ndarray, tol: float = 1e-3) -> str:
+    def first_swing_side(command: np.ndarray, tol: float = 1e-3) -> Side:
         """Which foot starts a walk: the one on the side the robot moves or turns to."""
         vy, wz = float(command[1]), float(command[2])
         if abs(vy) > tol:
-            return "l" if vy > 0 else "r"
+            return Side.LEFT if vy > 0 else Side.RIGHT
         if abs(wz) > tol:
-            return "l" if wz > 0 else "r"
-        return "l"
+            return Side.LEFT if wz > 0 else Side.RIGHT
+        return Side.LEFT
 
 
 def convex_hull(points: np.ndarray) -> np.ndarray:

@@ -22,9 +22,9 @@ from safe_legged_c3bf.biped.leg_ik import (
     leg_forward,
     leg_ik,
 )
+from safe_legged_c3bf.biped.side import SIDES, Side
 
 URDF_PATH = os.path.join(os.path.dirname(os.path.dirname(__file__)), "description", "biped.urdf")
-SIDES = ("l", "r")
 LEG_JOINTS = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
 #: the 12 actuated joints in controller order: left leg then right leg, hip to ankle.
 JOINT_NAMES = [f"{s}_{j}" for s in SIDES for j in LEG_JOINTS]
@@ -34,6 +34,20 @@ def _floats(text: str | None, n: int = 3) -> np.ndarray:
     if text is None:
         return np.zeros(n)
     return np.array([float(v) for v in text.split()])
+
+
+def _inertial(link: ET.Element) -> tuple[float, np.ndarray, np.ndarray]:
+    """Mass (kg), CoM (3,) in the link frame and inertia tensor (3, 3, kg m^2) of a link."""
+    inertial = link.find("inertial")
+    i_el = inertial.find("inertia")
+    ixx, ixy, ixz, iyy, iyz, izz = (
+        float(i_el.get(k, 0.0)) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+    )
+    return (
+        float(inertial.find("mass").get("value")),
+        _floats(inertial.find("origin").get("xyz")),
+        np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]),
+    )
 
 
 @dataclass(frozen=True)
@@ -51,6 +65,11 @@ class FootGeometry:
     length: float
     width: float
 
+    @property
+    def half_size(self) -> np.ndarray:
+        """(2,) half the sole's length and width (m)."""
+        return np.array([self.length / 2, self.width / 2])
+
 
 class BipedModel:
     """Leg geometry, joint limits and mass distribution of the biped."""
@@ -67,13 +86,13 @@ class BipedModel:
         self.lower = np.zeros(12)
         self.upper = np.zeros(12)
         self.effort = np.zeros(12)
-        self.legs: dict[str, LegGeometry] = {}
+        self.legs: dict[Side, LegGeometry] = {}
         #: per side: (6,) masses of the child links of the six joints
-        self.link_mass: dict[str, np.ndarray] = {}
+        self.link_mass: dict[Side, np.ndarray] = {}
         #: per side: (6, 3) centre of mass of each child link in its own frame
-        self.link_com: dict[str, np.ndarray] = {}
+        self.link_com: dict[Side, np.ndarray] = {}
         #: per side: (6, 3, 3) inertia tensor of each child link about its CoM, link axes
-        self.link_inertia: dict[str, np.ndarray] = {}
+        self.link_inertia: dict[Side, np.ndarray] = {}
         base = None
         for side in SIDES:
             origins, masses, coms, inertias = [], [], [], []
@@ -93,15 +112,10 @@ class BipedModel:
                 if k == 0:
                     parent = joint.find("parent").get("link")
                     base = parent if base is None else base
-                child = links[joint.find("child").get("link")]
-                inertial = child.find("inertial")
-                masses.append(float(inertial.find("mass").get("value")))
-                coms.append(_floats(inertial.find("origin").get("xyz")))
-                i_el = inertial.find("inertia")
-                ixx, ixy, ixz, iyy, iyz, izz = (
-                    float(i_el.get(k, 0.0)) for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
-                )
-                inertias.append(np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]))
+                mass, com, inertia = _inertial(links[joint.find("child").get("link")])
+                masses.append(mass)
+                coms.append(com)
+                inertias.append(inertia)
             origins = np.array(origins)
             zero = [1, 2, 5]  # roll/pitch at the hip, roll at the ankle coincide with the previous
             if np.any(np.abs(origins[zero]) > 1e-9) or np.any(np.abs(origins[3:5, :2]) > 1e-9):
@@ -137,15 +151,17 @@ class BipedModel:
         #: _pair_mask_j[j, k, l] = 1 when joints k and l both move link j
         self._pair_mask_j = (self._upper[:, None, :] * self._upper[None, :, :]).transpose(2, 0, 1)
 
-    def leg_frames(self, side: str, q_leg: np.ndarray) -> LegFrames:
+    def leg_frames(self, side: Side, q_leg: np.ndarray) -> LegFrames:
         """Forward kinematics of one leg (torso frame)."""
         return leg_forward(self.legs[side], q_leg)
 
-    def leg_ik(self, side: str, foot_position: np.ndarray, foot_rotation: np.ndarray) -> np.ndarray:
+    def leg_ik(
+        self, side: Side, foot_position: np.ndarray, foot_rotation: np.ndarray
+    ) -> np.ndarray:
         """Joint angles (6,) of one leg for a foot pose in the torso frame."""
         return leg_ik(self.legs[side], foot_position, foot_rotation, min_knee=0.05)
 
-    def com_from_frames(self, frames: dict[str, LegFrames]) -> np.ndarray:
+    def com_from_frames(self, frames: dict[Side, LegFrames]) -> np.ndarray:
         """Whole-body centre of mass (3,) in the torso frame, given both legs' frames."""
         total = self.torso_mass * self.torso_com
         for side in SIDES:
@@ -161,11 +177,11 @@ class BipedModel:
             {side: self.leg_frames(side, q[6 * i : 6 * i + 6]) for i, side in enumerate(SIDES)}
         )
 
-    def link_coms(self, side: str, frames: LegFrames) -> np.ndarray:
+    def link_coms(self, side: Side, frames: LegFrames) -> np.ndarray:
         """(6, 3) centres of mass of one leg's links in the torso frame."""
         return frames.positions + np.einsum("kij,kj->ki", frames.rotations, self.link_com[side])
 
-    def leg_gravity_torques(self, side: str, frames: LegFrames, gravity: np.ndarray) -> np.ndarray:
+    def leg_gravity_torques(self, side: Side, frames: LegFrames, gravity: np.ndarray) -> np.ndarray:
         """Joint torques (6,) that hold one leg's own weight (torso frame fixed).
 
         ``gravity`` (3,) is the gravity vector in the torso frame (m/s^2).
@@ -179,7 +195,7 @@ class BipedModel:
         lever = s_k - m_k[:, None] * frames.positions
         return -np.einsum("ij,ij->i", frames.axes, cross(lever, gravity))
 
-    def leg_mass_matrix(self, side: str, frames: LegFrames) -> np.ndarray:
+    def leg_mass_matrix(self, side: Side, frames: LegFrames) -> np.ndarray:
         """(6, 6) joint-space inertia of one leg with the torso held fixed."""
         coms = self.link_coms(side, frames)
         axes, pos, rot = frames.axes, frames.positions, frames.rotations
