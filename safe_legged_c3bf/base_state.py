@@ -10,31 +10,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-
-def quaternion_to_matrix(quat_xyzw: np.ndarray) -> np.ndarray:
-    """Rotation matrix (base_link -> odom) of a unit quaternion given as (x, y, z, w)."""
-    x, y, z, w = np.asarray(quat_xyzw, dtype=float) / np.linalg.norm(quat_xyzw)
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
-
-
-def quaternion_to_rpy(quat_xyzw: np.ndarray) -> np.ndarray:
-    """Roll, pitch, yaw (rad, ZYX convention) of a quaternion given as (x, y, z, w)."""
-    x, y, z, w = np.asarray(quat_xyzw, dtype=float) / np.linalg.norm(quat_xyzw)
-    roll = np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
-    pitch = np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0))
-    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    return np.array([roll, pitch, yaw])
-
-
-def yaw_to_quaternion(yaw: float) -> np.ndarray:
-    """Quaternion (x, y, z, w) of a pure rotation by ``yaw`` rad about z."""
-    return np.array([0.0, 0.0, np.sin(yaw / 2.0), np.cos(yaw / 2.0)])
+from safe_legged_c3bf.rotations import (  # noqa: F401 - re-exported for existing importers
+    quaternion_to_matrix,
+    quaternion_to_rpy,
+    yaw_to_quaternion,
+)
 
 
 @dataclass

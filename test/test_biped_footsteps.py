@@ -10,10 +10,10 @@ from safe_legged_c3bf.biped.footstep_planner import (
     FootstepPlanner,
     clip_to_polygon,
     convex_hull,
-    wrap_angle,
 )
 from safe_legged_c3bf.biped.params import BipedParams, GaitParams, StepLimits
 from safe_legged_c3bf.biped.swing_trajectory import SwingTrajectory
+from safe_legged_c3bf.rotations import wrap_angle
 
 
 @pytest.fixture()

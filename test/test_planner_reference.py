@@ -14,8 +14,8 @@ from safe_legged_c3bf.planning.reference_planner import (
     RobotPose,
     VelocityCommand,
     validate_goal,
-    wrap_angle,
 )
+from safe_legged_c3bf.rotations import wrap_angle
 
 DT = 0.02
 EPS = 1e-12

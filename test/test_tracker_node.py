@@ -22,8 +22,8 @@ from safe_legged_c3bf.nodes.obstacle_tracker_node import (
     ObstacleTrackerNode,
     ellipse_rotation,
     parameter_defaults,
-    quaternion_from_matrix,
 )
+from safe_legged_c3bf.rotations import matrix_to_quaternion
 from safe_legged_c3bf.tracking import ObstaclePlane
 from safe_legged_c3bf_msgs.msg import Obstacle, ObstacleArray
 
@@ -203,7 +203,7 @@ def test_horizontal_bar_marker_lies_along_y():
     np.testing.assert_allclose(R @ [0, 0, 1], [0, 1, 0], atol=1e-12)  # cylinder axis = odom y
     np.testing.assert_allclose(R @ [1, 0, 0], [math.cos(0.3), 0, math.sin(0.3)], atol=1e-12)
     assert np.linalg.det(R) == pytest.approx(1.0)
-    x, y, z, w = quaternion_from_matrix(R)
+    x, y, z, w = matrix_to_quaternion(R)
     # Rebuild the matrix from the quaternion and compare.
     Q = np.array([
         [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
@@ -212,7 +212,7 @@ def test_horizontal_bar_marker_lies_along_y():
     ])
     np.testing.assert_allclose(Q, R, atol=1e-12)
     R = ellipse_rotation(ObstaclePlane.VERTICAL, 1.0)
-    assert quaternion_from_matrix(R) == pytest.approx((0, 0, math.sin(0.5), math.cos(0.5)))
+    assert matrix_to_quaternion(R) == pytest.approx((0, 0, math.sin(0.5), math.cos(0.5)))
 
 
 def test_invalid_parameters_are_rejected_with_the_reason(ros_executor):

@@ -18,11 +18,7 @@ import numpy as np
 
 from safe_legged_c3bf.biped.params import GaitParams, StepLimits
 from safe_legged_c3bf.biped.side import Side
-
-
-def wrap_angle(a: float) -> float:
-    """Wrap an angle to [-pi, pi)."""
-    return (float(a) + math.pi) % (2.0 * math.pi) - math.pi
+from safe_legged_c3bf.rotations import wrap_angle
 
 
 def clamp(x: float, lo: float, hi: float) -> float:

@@ -14,13 +14,13 @@ import math
 
 import numpy as np
 
-from safe_legged_c3bf.biped.footstep_planner import wrap_angle
 from safe_legged_c3bf.biped.gait_schedule import LegPhase
 from safe_legged_c3bf.biped.leg_ik import rot_z, rpy_matrix
 from safe_legged_c3bf.biped.model import BipedModel
 from safe_legged_c3bf.biped.params import BipedParams, JointGains
 from safe_legged_c3bf.biped.side import SIDES, Side
 from safe_legged_c3bf.biped.state_estimate import BipedEstimate
+from safe_legged_c3bf.rotations import wrap_angle
 
 #: limits of the finite-difference joint rates (rad/s) and accelerations (rad/s^2)
 _MAX_RATE = 8.0

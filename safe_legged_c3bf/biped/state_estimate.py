@@ -18,11 +18,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from safe_legged_c3bf.base_state import BaseState
-from safe_legged_c3bf.biped.footstep_planner import wrap_angle
 from safe_legged_c3bf.biped.leg_ik import LegFrames
 from safe_legged_c3bf.biped.model import BipedModel
 from safe_legged_c3bf.biped.params import FeedbackGains
 from safe_legged_c3bf.biped.side import SIDES, Side
+from safe_legged_c3bf.rotations import wrap_angle
 
 
 @dataclass(frozen=True)

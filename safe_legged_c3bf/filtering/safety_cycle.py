@@ -49,6 +49,7 @@ from safe_legged_c3bf.filtering.obstacle_input import (
 from safe_legged_c3bf.filtering.params import FilterParams
 from safe_legged_c3bf.filtering.vanished import Vanished, VanishWatch
 from safe_legged_c3bf.gait_controller import VelocityCommand
+from safe_legged_c3bf.rotations import yaw_from_quaternion
 
 
 class CycleStatus(enum.IntEnum):
@@ -185,7 +186,7 @@ class SafetyFilterCycle:
         qx, qy, qz, qw = base.orientation.tolist()
         norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
         qx, qy, qz, qw = qx / norm, qy / norm, qz / norm, qw / norm
-        yaw = math.atan2(2 * (qw * qz + qx * qy), 1 - 2 * (qy * qy + qz * qz))
+        yaw = yaw_from_quaternion(qx, qy, qz, qw)
         vx, vy, vz = base.linear_velocity.tolist()
         vz_world = (2 * (qx * qz - qy * qw) * vx + 2 * (qy * qz + qx * qw) * vy
                     + (1 - 2 * (qx * qx + qy * qy)) * vz)

@@ -50,6 +50,7 @@ from safe_legged_c3bf import topics
 from safe_legged_c3bf.inputs import StampGate, StampVerdict
 from safe_legged_c3bf.node_parameters import TRACKER_NODE_DEFAULTS
 from safe_legged_c3bf.nodes import ros_common
+from safe_legged_c3bf.rotations import matrix_to_quaternion
 from safe_legged_c3bf.tracking import (
     Detection,
     MultiObstacleTracker,
@@ -168,26 +169,6 @@ def obstacle_to_msg(obs: TrackedObstacle, publish_unestimated_velocity: bool = F
     return msg
 
 
-def quaternion_from_matrix(R: np.ndarray) -> tuple[float, float, float, float]:
-    """Unit quaternion (x, y, z, w) of a 3x3 rotation matrix."""
-    m = np.asarray(R, dtype=float)
-    trace = m[0, 0] + m[1, 1] + m[2, 2]
-    if trace > 0.0:
-        s = 2.0 * math.sqrt(1.0 + trace)
-        q = ((m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, 0.25 * s)
-    elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
-        s = 2.0 * math.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2])
-        q = (0.25 * s, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s, (m[2, 1] - m[1, 2]) / s)
-    elif m[1, 1] > m[2, 2]:
-        s = 2.0 * math.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2])
-        q = ((m[0, 1] + m[1, 0]) / s, 0.25 * s, (m[1, 2] + m[2, 1]) / s, (m[0, 2] - m[2, 0]) / s)
-    else:
-        s = 2.0 * math.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1])
-        q = ((m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s, (m[1, 0] - m[0, 1]) / s)
-    norm = math.sqrt(sum(c * c for c in q))
-    return tuple(c / norm for c in q)  # type: ignore[return-value]
-
-
 def ellipse_rotation(plane: ObstaclePlane | int, orientation: float) -> np.ndarray:
     """Rotation (odom <- marker) of a cylinder marker whose x axis is the ellipse's a axis.
 
@@ -232,7 +213,7 @@ def obstacle_markers(
     for obs in obstacles:
         center = [float(c) for c in obs.center]
         extent = obs.extent if math.isfinite(obs.extent) else INFINITE_EXTENT_DISPLAY
-        x, y, z, w = quaternion_from_matrix(ellipse_rotation(obs.plane, obs.orientation))
+        x, y, z, w = matrix_to_quaternion(ellipse_rotation(obs.plane, obs.orientation))
         body = marker("obstacles", obs.track_id, Marker.CYLINDER)
         body.pose.position = Point(x=center[0], y=center[1], z=center[2])
         body.pose.orientation = Quaternion(x=x, y=y, z=z, w=w)

@@ -47,6 +47,7 @@ from safe_legged_c3bf.planning.reference_planner import (
     RobotPose,
     VelocityCommand,
 )
+from safe_legged_c3bf.rotations import yaw_from_quaternion
 
 # The parameter names and defaults live in a ROS-free module: scenario files are checked
 # against them when they are loaded.
@@ -179,11 +180,6 @@ def scenario_parameters(name_or_path: str, values: dict[str, object]) -> dict[st
         out["goal_tolerance"] = min(float(out["goal_tolerance"]), float(sc.goal.tolerance))
     out.update(planner.params)
     return out
-
-
-def yaw_from_quaternion(x: float, y: float, z: float, w: float) -> float:
-    """Yaw (rad) of a quaternion (x, y, z, w)."""
-    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
 def goal_from_pose(msg: PoseStamped) -> tuple[tuple[float, float, float | None] | None, str]:

@@ -41,6 +41,8 @@ from dataclasses import dataclass
 from enum import StrEnum
 from numbers import Real
 
+from safe_legged_c3bf.rotations import wrap_angle
+
 __all__ = [
     "Goal",
     "PlannerConfig",
@@ -52,11 +54,6 @@ __all__ = [
     "validate_goal",
     "wrap_angle",
 ]
-
-
-def wrap_angle(angle: float) -> float:
-    """Wrap an angle to ``[-pi, pi)``."""
-    return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def _clip(value: float, low: float, high: float) -> float:

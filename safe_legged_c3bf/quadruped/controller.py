@@ -42,6 +42,7 @@ from safe_legged_c3bf.quadruped.state_estimate import (
     estimate_body,
 )
 from safe_legged_c3bf.quadruped.swing import raibert_foothold, swing_point
+from safe_legged_c3bf.rotations import wrap_angle
 
 #: the package's parameter file (in the config directory)
 DEFAULT_CONFIG = "quadruped_controller.yaml"
@@ -52,10 +53,6 @@ _GROUND_TIME_CONSTANT = 0.1
 #: horizontal foot positions in base_link of the nominal stance (below the thigh joints)
 _NOMINAL_XY = kin.nominal_foot_positions(0.3)[:, :2]
 _NOMINAL_XY_LIST = _NOMINAL_XY.tolist()
-
-
-def _wrap(angle: float) -> float:
-    return (angle + np.pi) % (2.0 * np.pi) - np.pi
 
 
 class QuadrupedMpcController:
@@ -437,7 +434,7 @@ class QuadrupedMpcController:
         c_mid, s_mid = np.cos(yaw_mid), np.sin(yaw_mid)
         vel_xy = np.stack([c_mid * vx - s_mid * vy, s_mid * vx + c_mid * vy], axis=1)
         if self._anchor is not None:
-            x_ref[:, 0:3] = (0.0, 0.0, yaw + _wrap(self._anchor[2] - yaw))
+            x_ref[:, 0:3] = (0.0, 0.0, yaw + wrap_angle(self._anchor[2] - yaw))
             x_ref[:, 3:5] = self._anchor[:2]
         else:
             x_ref[:, 2] = yaw_states

@@ -15,6 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet
 
+from safe_legged_c3bf.rotations import yaw_from_quaternion
+
 
 @dataclass
 class CameraConfig:
@@ -69,8 +71,7 @@ class FollowCamera:
             self.body_id, physicsClientId=self.client
         )
         target = np.array([pos[0], pos[1], self.config.target_height])
-        x, y, z, w = quat
-        heading = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+        heading = yaw_from_quaternion(*quat)
         tau = self.config.smoothing
         if self._target is None or t is None or self._last_time is None or tau <= 0:
             self._target = target

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pybullet
 
+from safe_legged_c3bf.rotations import matrix_to_quaternion
 from safe_legged_c3bf.sim.scenario import MotionConfig, ObstacleConfig
 
 #: Obstacle planes (values of safe_legged_c3bf_msgs/Obstacle.plane).
@@ -166,31 +167,6 @@ def obstacle_rotation(plane: int, orientation: float) -> np.ndarray:
     x_axis = np.array([c, 0.0, s])
     y_axis = np.array([-s, 0.0, c])
     return np.column_stack([x_axis, y_axis, np.cross(x_axis, y_axis)])
-
-
-def matrix_to_quaternion(rot: np.ndarray) -> tuple[float, float, float, float]:
-    """Quaternion (x, y, z, w) of a rotation matrix."""
-    m = np.asarray(rot, dtype=float)
-    trace = m[0, 0] + m[1, 1] + m[2, 2]
-    if trace > 0.0:
-        s = 2.0 * math.sqrt(trace + 1.0)
-        w, x = 0.25 * s, (m[2, 1] - m[1, 2]) / s
-        y, z = (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s
-    elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
-        s = 2.0 * math.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2])
-        w, x = (m[2, 1] - m[1, 2]) / s, 0.25 * s
-        y, z = (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s
-    elif m[1, 1] > m[2, 2]:
-        s = 2.0 * math.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2])
-        w, x = (m[0, 2] - m[2, 0]) / s, (m[0, 1] + m[1, 0]) / s
-        y, z = 0.25 * s, (m[1, 2] + m[2, 1]) / s
-    else:
-        s = 2.0 * math.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1])
-        w, x = (m[1, 0] - m[0, 1]) / s, (m[0, 2] + m[2, 0]) / s
-        y, z = (m[1, 2] + m[2, 1]) / s, 0.25 * s
-    q = np.array([x, y, z, w])
-    q /= np.linalg.norm(q)
-    return tuple(float(v) for v in q)
 
 
 def ellipse_prism(
