@@ -25,7 +25,7 @@ A thin wrapper around :class:`safe_legged_c3bf.sim.world.Simulation`:
   mode, rejected commands, lockstep timeouts; WARN while the drivers damp after a command
   timeout). The messages that change only in a few numbers (/clock, /odom, /imu,
   /joint_states, /ground_truth/obstacles) are serialized once and patched in place
-  (:mod:`safe_legged_c3bf.nodes.cdr_template`);
+  (:mod:`safe_legged_c3bf.nodes.simulator.cdr_template`);
 * before the first command (``wait_for_first_command``) physics does not advance: /clock and
   the state at t = 0 are republished at 10 Hz so controllers in slow-to-discover processes
   can start;
@@ -78,8 +78,8 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import Imu, JointState
 
 from safe_legged_c3bf import topics
-from safe_legged_c3bf.nodes.cdr_template import CdrTemplate, time_parts
 from safe_legged_c3bf.nodes.ros_common import diagnostic_status, qos, run_node, to_time_msg
+from safe_legged_c3bf.nodes.simulator.cdr_template import CdrTemplate, time_parts
 from safe_legged_c3bf.sim.motor_driver import DriverMode
 from safe_legged_c3bf.sim.obstacles import ObstacleState
 from safe_legged_c3bf.sim.scenario import ScenarioError
