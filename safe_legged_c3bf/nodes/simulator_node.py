@@ -68,7 +68,6 @@ from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.guard_condition import GuardCondition
@@ -80,43 +79,12 @@ from sensor_msgs.msg import Imu, JointState
 from safe_legged_c3bf import topics
 from safe_legged_c3bf.nodes.ros_common import diagnostic_status, qos, run_node, to_time_msg
 from safe_legged_c3bf.nodes.simulator.cdr_template import CdrTemplate, time_parts
+from safe_legged_c3bf.nodes.simulator.parameters import PARAMETERS, LoopSettings, declare_parameters
 from safe_legged_c3bf.sim.motor_driver import DriverMode
 from safe_legged_c3bf.sim.obstacles import ObstacleState
 from safe_legged_c3bf.sim.scenario import ScenarioError
 from safe_legged_c3bf.sim.world import Simulation, rotate, rotate_inverse
 from safe_legged_c3bf_msgs.msg import GroundTruthSafety, MotorCommand, Obstacle, ObstacleArray
-
-#: Node parameters: name -> (default, description with units). config/simulator.yaml mirrors it.
-PARAMETERS: dict[str, tuple[Any, str]] = {
-    "scenario": ("quadruped_default", "scenario name (config/scenarios/<name>.yaml) or path"),
-    "seed": (-1, "random seed; -1 = the scenario's seed"),
-    "gui": (False, "open the PyBullet GUI instead of running headless (DIRECT)"),
-    "physics_rate": (1000.0, "physics steps per sim second (Hz)"),
-    "state_rate": (250.0, "/imu and /joint_states rate (Hz, sim time): the control rate and "
-                   "the lockstep period"),
-    "odom_rate": (100.0, "/odom rate (Hz, sim time, at most state_rate; rounded to a whole "
-                  "number of state periods): navigation nodes "
-                  "need no more, and each subscriber pays per message"),
-    "clock_rate": (100.0, "/clock rate (Hz, sim time, at most state_rate; rounded like "
-                   "odom_rate): the resolution of "
-                   "the other nodes' sim-time clocks"),
-    "ground_truth_rate": (50.0, "/ground_truth/* rate (Hz, sim time)"),
-    "detection_rate": (0.0, "/obstacles/detections rate (Hz, sim time); 0 = scenario's rate"),
-    "strip_detection_ids": (False, "publish detections with empty ids"),
-    "real_time_factor": (1.0, "sim seconds per wall second; 0 = as fast as possible"),
-    "max_lag": (0.05, "wall time (s) physics may fall behind the real-time schedule before "
-                "it stops catching up (it then runs slower than real time)"),
-    "wait_for_first_command": (True, "hold physics at t = 0 until the first MotorCommand"),
-    "command_timeout": (0.1, "sim time without a command before the drivers damp (s)"),
-    "damping_kd": (1.0, "damping gain of the drivers' damping mode (N m s/rad)"),
-    "lockstep": (False, "advance one state period only after a command for the last state"),
-    "lockstep_timeout": (1.0, "wall time to wait for that command before advancing (s)"),
-    "summary_path": ("", "write the run summary JSON here at the end / at shutdown"),
-    "diagnostics_period": (1.0, "wall period of /diagnostics (s)"),
-    "exit_on_finish": (False, "shut the ROS context down when the scenario ends (standalone)"),
-    "video_path": ("", "write the follow camera's video here (.gif or .mp4; '' = none)"),
-    "video_fps": (10.0, "video frames per sim second (each costs a 20-60 ms render)"),
-}
 
 _IDLE_PUBLISH_PERIOD = 0.1  # wall s between state republications while waiting
 
@@ -156,18 +124,8 @@ class SimulatorNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         """Create the node; ``kwargs`` go to rclpy's Node (context, parameter_overrides...)."""
         super().__init__("simulator", **kwargs)
-        for name, (default, description) in PARAMETERS.items():
-            self.declare_parameter(name, default, ParameterDescriptor(description=description))
-        p = {name: self.get_parameter(name).value for name in PARAMETERS}
+        p = declare_parameters(self)
         self._params = p
-        self._check_parameters(p)
-
-        self._rtf = float(p["real_time_factor"])
-        self._lockstep = bool(p["lockstep"])
-        self._lockstep_timeout = float(p["lockstep_timeout"])
-        self._strip_ids = bool(p["strip_detection_ids"])
-        self._summary_path = str(p["summary_path"])
-        self._exit_on_finish = bool(p["exit_on_finish"])
         physics_dt = 1.0 / float(p["physics_rate"])
         seed = int(p["seed"])
         self._sim = Simulation(
@@ -179,20 +137,20 @@ class SimulatorNode(Node):
             damping_kd=float(p["damping_kd"]),
         )
         sim = self._sim
-        rate = float(p["physics_rate"])
-        detection_rate = float(p["detection_rate"]) or sim.scenario.perception.rate
-        self._state_every = max(1, round(rate / float(p["state_rate"])))
-        self._clock_every = max(
-            self._state_every,
-            self._state_every * round(float(p["state_rate"]) / float(p["clock_rate"])),
-        )
-        self._odom_every = max(
-            self._state_every,
-            self._state_every * round(float(p["state_rate"]) / float(p["odom_rate"])),
-        )
-        self._gt_every = max(1, round(rate / float(p["ground_truth_rate"])))
-        self._det_every = max(1, round(rate / detection_rate))
-        self._max_lag = float(p["max_lag"])
+        settings = LoopSettings.from_parameters(p, sim.scenario.perception.rate)
+        self._settings = settings
+        self._rtf = settings.real_time_factor
+        self._lockstep = settings.lockstep
+        self._lockstep_timeout = settings.lockstep_timeout
+        self._strip_ids = bool(p["strip_detection_ids"])
+        self._summary_path = str(p["summary_path"])
+        self._exit_on_finish = bool(p["exit_on_finish"])
+        self._state_every = settings.state_every
+        self._clock_every = settings.clock_every
+        self._odom_every = settings.odom_every
+        self._gt_every = settings.ground_truth_every
+        self._det_every = settings.detection_every
+        self._max_lag = settings.max_lag
 
         # No QoS event handlers on the publishers: each is a waitable that the rclpy executor
         # polls at every wake-up, which at ~1 kHz of wake-ups costs far more than the
@@ -307,10 +265,8 @@ class SimulatorNode(Node):
                 self._await_stamp, self._await_since = 0, time.monotonic()
         self.get_logger().info(
             f"scenario '{sim.scenario.name}' ({sim.scenario.robot.model}, "
-            f"{len(sim.obstacles)} obstacles, {sim.scenario.duration:g} s), physics "
-            f"{rate:g} Hz, state every {self._state_every} steps ({rate / self._state_every:g} "
-            f"Hz; /odom {rate / self._odom_every:g} Hz, /clock {rate / self._clock_every:g} Hz),"
-            f" real_time_factor "
+            f"{len(sim.obstacles)} obstacles, {sim.scenario.duration:g} s), "
+            f"{settings.describe()}, real_time_factor "
             f"{self._rtf:g}, lockstep {self._lockstep}"
             + (", waiting for the first command" if self._waiting else "")
         )
@@ -387,27 +343,6 @@ class SimulatorNode(Node):
             self._flush_video(close=True)
             self._sim.close()
         super().destroy_node()
-
-    # ------------------------------------------------------------------ parameters
-
-    @staticmethod
-    def _check_parameters(p: dict[str, Any]) -> None:
-        positive = ("physics_rate", "state_rate", "odom_rate", "clock_rate", "ground_truth_rate",
-                    "max_lag", "command_timeout", "lockstep_timeout", "diagnostics_period")
-        for name in positive:
-            if not float(p[name]) > 0:
-                raise ValueError(f"parameter {name} must be > 0, got {p[name]!r}")
-        for name in ("detection_rate", "real_time_factor", "damping_kd"):
-            if not float(p[name]) >= 0:
-                raise ValueError(f"parameter {name} must be >= 0, got {p[name]!r}")
-        if p["video_path"]:
-            from safe_legged_c3bf.sim.video import check_video_path
-
-            check_video_path(str(p["video_path"]))
-            if not float(p["video_fps"]) > 0:
-                raise ValueError(f"parameter video_fps must be > 0, got {p['video_fps']!r}")
-        if float(p["state_rate"]) > float(p["physics_rate"]):
-            raise ValueError("parameter state_rate must not exceed physics_rate")
 
     # ------------------------------------------------------------------ callbacks
 
@@ -773,6 +708,8 @@ def main(args: list[str] | None = None) -> int:
         print(f"simulator: {exc}", file=sys.stderr)
         return 2
 
+
+__all__ = ["PARAMETERS", "SimulatorNode", "main"]
 
 if __name__ == "__main__":
     sys.exit(main())
