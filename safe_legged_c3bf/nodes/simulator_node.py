@@ -56,7 +56,6 @@ wall-time entries of the summary are never reproducible.
 
 from __future__ import annotations
 
-import array
 import json
 import math
 import sys
@@ -67,33 +66,29 @@ from collections.abc import Callable
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
-from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
-from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.guard_condition import GuardCondition
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
-from rosgraph_msgs.msg import Clock as ClockMsg
-from sensor_msgs.msg import Imu, JointState
 
 from safe_legged_c3bf import topics
 from safe_legged_c3bf.nodes.ros_common import diagnostic_status, qos, run_node, to_time_msg
-from safe_legged_c3bf.nodes.simulator.cdr_template import CdrTemplate, time_parts
+from safe_legged_c3bf.nodes.simulator.cdr_template import (
+    STAMP,
+    CdrTemplate,
+    time_parts,
+    vector_fields,
+)
 from safe_legged_c3bf.nodes.simulator.parameters import PARAMETERS, LoopSettings, declare_parameters
+from safe_legged_c3bf.nodes.simulator.quiet_publisher import quiet_publisher
+from safe_legged_c3bf.nodes.simulator.state_publisher import StatePublisher
 from safe_legged_c3bf.sim.motor_driver import DriverMode
 from safe_legged_c3bf.sim.obstacles import ObstacleState
 from safe_legged_c3bf.sim.scenario import ScenarioError
-from safe_legged_c3bf.sim.world import Simulation, rotate, rotate_inverse
+from safe_legged_c3bf.sim.world import Simulation
 from safe_legged_c3bf_msgs.msg import GroundTruthSafety, MotorCommand, Obstacle, ObstacleArray
 
 _IDLE_PUBLISH_PERIOD = 0.1  # wall s between state republications while waiting
-
-
-_STAMP = ["header.stamp.sec", "header.stamp.nanosec"]
-
-
-def _xyz(prefix: str, axes: str = "xyz") -> list[str]:
-    return [f"{prefix}.{a}" for a in axes]
 
 
 def _stamp_ns(stamp: Any) -> int:
@@ -152,23 +147,11 @@ class SimulatorNode(Node):
         self._det_every = settings.detection_every
         self._max_lag = settings.max_lag
 
-        # No QoS event handlers on the publishers: each is a waitable that the rclpy executor
-        # polls at every wake-up, which at ~1 kHz of wake-ups costs far more than the
-        # warnings they give (a subscriber with an incompatible QoS still warns on its side).
-        def publisher(msg_type: type, topic: topics.Topic):  # noqa: ANN202
-            return self.create_publisher(
-                msg_type, topic.name, qos(topic),
-                event_callbacks=PublisherEventCallbacks(use_default_callbacks=False),
-            )
-
-        self._pub_clock = publisher(ClockMsg, topics.CLOCK)
-        self._pub_odom = publisher(Odometry, topics.ODOM)
-        self._pub_imu = publisher(Imu, topics.IMU)
-        self._pub_joints = publisher(JointState, topics.JOINT_STATES)
-        self._pub_detections = publisher(ObstacleArray, topics.OBSTACLE_DETECTIONS)
-        self._pub_gt_safety = publisher(GroundTruthSafety, topics.GROUND_TRUTH_SAFETY)
-        self._pub_gt_obstacles = publisher(ObstacleArray, topics.GROUND_TRUTH_OBSTACLES)
-        self._pub_diag = publisher(DiagnosticArray, topics.DIAGNOSTICS)
+        self._state = StatePublisher(self, sim, settings.clock_every, settings.odom_every)
+        self._pub_detections = quiet_publisher(self, topics.OBSTACLE_DETECTIONS)
+        self._pub_gt_safety = quiet_publisher(self, topics.GROUND_TRUTH_SAFETY)
+        self._pub_gt_obstacles = quiet_publisher(self, topics.GROUND_TRUTH_OBSTACLES)
+        self._pub_diag = quiet_publisher(self, topics.DIAGNOSTICS)
         # The motor drivers' command bus: /joint_commands is subscribed by a helper node that
         # is never added to an executor; the physics thread takes the messages itself (and
         # blocks on a wait set when it has to wait for one). At 500 Hz of commands, executor
@@ -194,34 +177,6 @@ class SimulatorNode(Node):
         self._stop = threading.Event()
         self._error: str | None = None
 
-        # The state messages go out at the state rate: serialized once, patched in place.
-        odom = Odometry()
-        odom.header.frame_id, odom.child_frame_id = topics.ODOM_FRAME, topics.BASE_FRAME
-        self._odom = CdrTemplate(odom, {
-            "stamp": _STAMP,
-            "pose": _xyz("pose.pose.position") + _xyz("pose.pose.orientation", "xyzw"),
-            "twist": _xyz("twist.twist.linear") + _xyz("twist.twist.angular"),
-        })
-        joints = JointState()
-        joints.name = sim.joint_names
-        n = len(sim.joint_names)
-        for field in ("position", "velocity", "effort"):
-            setattr(joints, field, array.array("d", [0.0] * n))
-        self._joints = CdrTemplate(joints, {"stamp": _STAMP} | {
-            field: [f"{field}[{i}]" for i in range(n)]
-            for field in ("position", "velocity", "effort")
-        })
-        imu = Imu()
-        imu.header.frame_id = topics.BASE_FRAME
-        self._imu = CdrTemplate(imu, {
-            "stamp": _STAMP,
-            "orientation": _xyz("orientation", "xyzw"),
-            "angular_velocity": _xyz("angular_velocity"),
-            "linear_acceleration": _xyz("linear_acceleration"),
-        })
-        self._clock = CdrTemplate(ClockMsg(), {"stamp": ["clock.sec", "clock.nanosec"]})
-        self._last_world_velocity: tuple[float, tuple[float, float, float]] | None = None
-        self._gravity = float(sim.scenario.physics.gravity)
         self._gt_safety = GroundTruthSafety()
         self._gt_safety.header.frame_id = topics.ODOM_FRAME
 
@@ -514,50 +469,7 @@ class SimulatorNode(Node):
     # ------------------------------------------------------------------ publishing
 
     def _publish_state(self) -> None:
-        sim = self._sim
-        sec, nanosec = time_parts(sim.time)
-        self._last_state_stamp = sec * 1_000_000_000 + nanosec
-        k, waiting = sim.step_count, self._waiting
-        if waiting or k % self._clock_every == 0:
-            self._clock.set("stamp", sec, nanosec)
-            self._pub_clock.publish(self._clock.bytes())
-        position, orientation, linear, angular = sim.base_pose_twist()
-        if waiting or k % self._odom_every == 0:
-            odom = self._odom
-            odom.set("stamp", sec, nanosec)
-            odom.set("pose", *position, *orientation)
-            odom.set("twist", *linear, *angular)
-            self._pub_odom.publish(odom.bytes())
-        self._publish_imu(sec, nanosec, orientation, linear, angular)
-        q, dq, tau = sim.joint_lists()
-        joints = self._joints
-        joints.set("stamp", sec, nanosec)
-        joints.set("position", *q)
-        joints.set("velocity", *dq)
-        joints.set("effort", *tau)
-        self._pub_joints.publish(joints.bytes())
-
-    def _publish_imu(self, sec: int, nanosec: int, orientation, linear, angular) -> None:  # noqa: ANN001
-        """/imu: orientation, angular velocity and specific force, in base_link.
-
-        The specific force is R^T (a + g), a the finite difference of the world-frame velocity
-        of base_link between two states (zero at the first). Plain floats: this runs at the
-        state rate, where numpy's per-call overhead for 3-vectors costs more than the math.
-        """
-        vx, vy, vz = rotate(orientation, linear)
-        t = self._sim.time
-        ax = ay = az = 0.0
-        last = self._last_world_velocity
-        if last is not None and t > last[0]:
-            t0, (ux, uy, uz) = last
-            ax, ay, az = (vx - ux) / (t - t0), (vy - uy) / (t - t0), (vz - uz) / (t - t0)
-        self._last_world_velocity = (t, (vx, vy, vz))
-        imu = self._imu
-        imu.set("stamp", sec, nanosec)
-        imu.set("orientation", *orientation)
-        imu.set("angular_velocity", *angular)
-        imu.set("linear_acceleration", *rotate_inverse(orientation, (ax, ay, az + self._gravity)))
-        self._pub_imu.publish(imu.bytes())
+        self._last_state_stamp = self._state.publish(self._waiting)
 
     def _obstacle_array(self, states: list[ObstacleState]) -> ObstacleArray:
         msg = ObstacleArray()
@@ -584,8 +496,9 @@ class SimulatorNode(Node):
         sim = self._sim
         if self._gt_obstacles is None:
             msg = self._obstacle_array(sim.obstacle_states())
-            self._gt_obstacles = CdrTemplate(msg, {"stamp": _STAMP} | {
-                f"moving{i}": _xyz(f"obstacles[{i}].center") + _xyz(f"obstacles[{i}].velocity")
+            self._gt_obstacles = CdrTemplate(msg, {"stamp": STAMP} | {
+                f"moving{i}": vector_fields(f"obstacles[{i}].center")
+                + vector_fields(f"obstacles[{i}].velocity")
                 for i in self._moving
             })
         template = self._gt_obstacles
