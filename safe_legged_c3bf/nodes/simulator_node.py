@@ -73,44 +73,21 @@ from rclpy.node import Node
 
 from safe_legged_c3bf import topics
 from safe_legged_c3bf.nodes.ros_common import diagnostic_status, qos, run_node, to_time_msg
-from safe_legged_c3bf.nodes.simulator.cdr_template import (
-    STAMP,
-    CdrTemplate,
-    time_parts,
-    vector_fields,
-)
+from safe_legged_c3bf.nodes.simulator.detection_publisher import DetectionPublisher
+from safe_legged_c3bf.nodes.simulator.ground_truth_publisher import GroundTruthPublisher
 from safe_legged_c3bf.nodes.simulator.parameters import PARAMETERS, LoopSettings, declare_parameters
 from safe_legged_c3bf.nodes.simulator.quiet_publisher import quiet_publisher
 from safe_legged_c3bf.nodes.simulator.state_publisher import StatePublisher
 from safe_legged_c3bf.sim.motor_driver import DriverMode
-from safe_legged_c3bf.sim.obstacles import ObstacleState
 from safe_legged_c3bf.sim.scenario import ScenarioError
 from safe_legged_c3bf.sim.world import Simulation
-from safe_legged_c3bf_msgs.msg import GroundTruthSafety, MotorCommand, Obstacle, ObstacleArray
+from safe_legged_c3bf_msgs.msg import MotorCommand
 
 _IDLE_PUBLISH_PERIOD = 0.1  # wall s between state republications while waiting
 
 
 def _stamp_ns(stamp: Any) -> int:
     return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
-
-
-def obstacle_to_msg(state: ObstacleState, msg: Obstacle | None = None) -> Obstacle:
-    """safe_legged_c3bf_msgs/Obstacle from an :class:`ObstacleState` (filled into ``msg``)."""
-    if msg is None:
-        msg = Obstacle()
-    msg.id = state.id
-    msg.plane = int(state.plane)
-    center, velocity = msg.center, msg.velocity
-    center.x, center.y, center.z = state.center.tolist()
-    velocity.x, velocity.y, velocity.z = state.velocity.tolist()
-    msg.semi_axis_a, msg.semi_axis_b = float(state.semi_axes[0]), float(state.semi_axes[1])
-    msg.orientation = float(state.orientation)
-    msg.extent = float(state.extent)
-    msg.position_covariance = state.position_covariance.reshape(-1).astype(float)
-    msg.velocity_covariance = state.velocity_covariance.reshape(-1).astype(float)
-    msg.velocity_source = int(state.velocity_source)
-    return msg
 
 
 class SimulatorNode(Node):
@@ -137,7 +114,6 @@ class SimulatorNode(Node):
         self._rtf = settings.real_time_factor
         self._lockstep = settings.lockstep
         self._lockstep_timeout = settings.lockstep_timeout
-        self._strip_ids = bool(p["strip_detection_ids"])
         self._summary_path = str(p["summary_path"])
         self._exit_on_finish = bool(p["exit_on_finish"])
         self._state_every = settings.state_every
@@ -148,9 +124,8 @@ class SimulatorNode(Node):
         self._max_lag = settings.max_lag
 
         self._state = StatePublisher(self, sim, settings.clock_every, settings.odom_every)
-        self._pub_detections = quiet_publisher(self, topics.OBSTACLE_DETECTIONS)
-        self._pub_gt_safety = quiet_publisher(self, topics.GROUND_TRUTH_SAFETY)
-        self._pub_gt_obstacles = quiet_publisher(self, topics.GROUND_TRUTH_OBSTACLES)
+        self._detections = DetectionPublisher(self, sim, bool(p["strip_detection_ids"]))
+        self._truth = GroundTruthPublisher(self, sim)
         self._pub_diag = quiet_publisher(self, topics.DIAGNOSTICS)
         # The motor drivers' command bus: /joint_commands is subscribed by a helper node that
         # is never added to an executor; the physics thread takes the messages itself (and
@@ -177,14 +152,6 @@ class SimulatorNode(Node):
         self._stop = threading.Event()
         self._error: str | None = None
 
-        self._gt_safety = GroundTruthSafety()
-        self._gt_safety.header.frame_id = topics.ODOM_FRAME
-
-        self._gt_obstacles: CdrTemplate | None = None
-        self._detections = ObstacleArray()
-        self._detections.header.frame_id = topics.ODOM_FRAME
-        self._detection_pool = [Obstacle() for _ in sim.obstacles]
-        self._moving = [i for i, o in enumerate(sim.obstacles) if o.moving]
         self._finished = False
         self._summary_written = False
         self._finished_callbacks: list[Callable[[SimulatorNode], None]] = []
@@ -471,57 +438,11 @@ class SimulatorNode(Node):
     def _publish_state(self) -> None:
         self._last_state_stamp = self._state.publish(self._waiting)
 
-    def _obstacle_array(self, states: list[ObstacleState]) -> ObstacleArray:
-        msg = ObstacleArray()
-        msg.header.stamp = to_time_msg(self._sim.time)
-        msg.header.frame_id = topics.ODOM_FRAME
-        msg.obstacles = [obstacle_to_msg(s) for s in states]
-        return msg
-
     def _publish_detections(self) -> None:
-        detections = self._sim.detections(include_ids=not self._strip_ids)
-        # Obstacle messages are reused from frame to frame.
-        pool = self._detection_pool
-        pool.extend(Obstacle() for _ in range(len(detections) - len(pool)))
-        msg = self._detections
-        msg.header.stamp = to_time_msg(self._sim.time)
-        msg.obstacles = [
-            obstacle_to_msg(d, m)
-            for d, m in zip(detections, pool[: len(detections)], strict=True)
-        ]
-        self._pub_detections.publish(msg)
-
-    def _ground_truth_obstacles(self) -> bytes:
-        """/ground_truth/obstacles now, serialized: only the moving obstacles change."""
-        sim = self._sim
-        if self._gt_obstacles is None:
-            msg = self._obstacle_array(sim.obstacle_states())
-            self._gt_obstacles = CdrTemplate(msg, {"stamp": STAMP} | {
-                f"moving{i}": vector_fields(f"obstacles[{i}].center")
-                + vector_fields(f"obstacles[{i}].velocity")
-                for i in self._moving
-            })
-        template = self._gt_obstacles
-        t = sim.time
-        template.set("stamp", *time_parts(t))
-        for i in self._moving:
-            position, velocity = sim.obstacles[i].script.state(t)
-            template.set(f"moving{i}", *position.tolist(), *velocity.tolist())
-        return template.bytes()
+        self._detections.publish()
 
     def _publish_ground_truth(self) -> None:
-        sim = self._sim
-        gt = sim.ground_truth
-        msg = self._gt_safety
-        msg.header.stamp = to_time_msg(sim.time)
-        msg.in_collision = gt.in_collision
-        msg.collision_count = gt.collision_count
-        msg.min_distance = float(gt.min_distance)
-        msg.closest_obstacle_id = gt.closest_obstacle_id
-        msg.contact_obstacle_ids = list(gt.contact_obstacle_ids)
-        msg.fallen = gt.fallen
-        self._pub_gt_safety.publish(msg)
-        self._pub_gt_obstacles.publish(self._ground_truth_obstacles())
+        self._truth.publish()
 
     def _publish_diagnostics(self) -> None:
         # Called from both threads; it only reads counters, so it takes no lock.
