@@ -67,12 +67,11 @@ from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.clock import Clock, ClockType
-from rclpy.guard_condition import GuardCondition
-from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 
 from safe_legged_c3bf import topics
-from safe_legged_c3bf.nodes.ros_common import diagnostic_status, qos, run_node, to_time_msg
+from safe_legged_c3bf.nodes.ros_common import diagnostic_status, run_node, to_time_msg
+from safe_legged_c3bf.nodes.simulator.command_bus import CommandBus
 from safe_legged_c3bf.nodes.simulator.detection_publisher import DetectionPublisher
 from safe_legged_c3bf.nodes.simulator.ground_truth_publisher import GroundTruthPublisher
 from safe_legged_c3bf.nodes.simulator.parameters import PARAMETERS, LoopSettings, declare_parameters
@@ -127,25 +126,7 @@ class SimulatorNode(Node):
         self._detections = DetectionPublisher(self, sim, bool(p["strip_detection_ids"]))
         self._truth = GroundTruthPublisher(self, sim)
         self._pub_diag = quiet_publisher(self, topics.DIAGNOSTICS)
-        # The motor drivers' command bus: /joint_commands is subscribed by a helper node that
-        # is never added to an executor; the physics thread takes the messages itself (and
-        # blocks on a wait set when it has to wait for one). At 500 Hz of commands, executor
-        # dispatch would cost more CPU than the physics, and commands reach the drivers even
-        # when a shared executor is busy.
-        self._bus = Node(
-            f"{self.get_name()}_motor_drivers",
-            context=self.context,
-            namespace=self.get_namespace(),
-            cli_args=kwargs.get("cli_args"),
-            start_parameter_services=False,
-            enable_rosout=False,
-        )
-        self._command_sub = self._bus.create_subscription(
-            MotorCommand, topics.JOINT_COMMANDS.name, lambda _msg: None,
-            qos(topics.JOINT_COMMANDS),
-        )
-        self._wake = GuardCondition(None, None, context=self.context)
-        self._wait_set = _rclpy.WaitSet(1, 1, 0, 0, 0, 0, self.context.handle)
+        self._bus = CommandBus(self, self._take_command, kwargs.get("cli_args"))
         #: Held by the physics thread while it uses the world; hold it to use
         #: :attr:`simulation` from another thread while the node runs.
         self.lock = threading.RLock()
@@ -254,11 +235,10 @@ class SimulatorNode(Node):
     def destroy_node(self) -> None:
         """Stop physics, write the summary (if not yet written), close the world and node."""
         self._stop.set()
-        self._wake.trigger()
+        self._bus.wake()
         if self._thread.is_alive() and self._thread is not threading.current_thread():
             self._thread.join(timeout=10.0)
-        self._bus.destroy_node()
-        self._wake.destroy()
+        self._bus.destroy()
         with self.lock:
             if not self._summary_written:
                 self._write_summary()
@@ -275,20 +255,7 @@ class SimulatorNode(Node):
         self._anchor = (now, self._sim.time)
 
     def _drain_commands(self) -> None:
-        """Take every MotorCommand waiting on the bus (physics thread)."""
-        handle = self._command_sub.handle
-        with handle:
-            while (taken := handle.take_message(MotorCommand, False)) is not None:
-                self._take_command(taken[0])
-
-    def _wait_for_command(self, timeout: float) -> None:
-        """Block until a MotorCommand arrives, :meth:`destroy_node` is called or ``timeout``."""
-        wait_set = self._wait_set
-        wait_set.clear_entities()
-        with self._command_sub.handle, self._wake.handle:
-            wait_set.add_subscription(self._command_sub.handle)
-            wait_set.add_guard_condition(self._wake.handle)
-            wait_set.wait(int(timeout * 1e9))
+        self._bus.drain()
 
     def _take_command(self, msg: MotorCommand) -> None:
         if self._finished:
@@ -325,7 +292,7 @@ class SimulatorNode(Node):
                 if action == "stop":
                     break
                 if action == "wait":  # for a command (or the lockstep timeout)
-                    self._wait_for_command(delay)
+                    self._bus.wait(delay)
                 elif delay > 0.0:  # for the wall time of the next period
                     time.sleep(delay)
                 else:
