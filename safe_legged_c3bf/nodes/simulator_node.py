@@ -1,34 +1,26 @@
 """ROS 2 bridge of the PyBullet world: the ``simulator`` node.
 
-A thin wrapper around :class:`safe_legged_c3bf.sim.world.Simulation`:
+A thin wrapper around :class:`safe_legged_c3bf.sim.world.Simulation`, built from the parts in
+:mod:`safe_legged_c3bf.nodes.simulator`; this module wires them and publishes /diagnostics.
 
-* physics runs in the node's own thread, one state period (1 / ``state_rate``) at a time,
-  paced to ``real_time_factor`` against the steady wall clock (0 = as fast as possible). The
-  node never blocks an executor: the executor it is added to only runs its diagnostics timer,
-  so it can share an executor (and a process) with other nodes, or run as its own process
-  (``simulator`` console script). The world is used under :attr:`SimulatorNode.lock`.
-* ``/joint_commands`` (MotorCommand) is read by the physics thread itself, from a subscription
-  of a helper node ``<name>_motor_drivers`` that is never added to an executor: commands are
-  taken before every physics step (between periods in lockstep mode) and handed to the
-  emulated motor drivers; rejected ones (non-finite, negative gains, unknown joints, wrong
-  sizes) are counted and reported in ``/diagnostics``. Why not an executor callback and a
-  wall timer: at the 500 Hz of states and commands, rclpy's executor costs more CPU per
-  wake-up than a physics step, and commands keep reaching the drivers when a shared executor
-  is busy.
+* physics runs in the node's own thread (:mod:`~safe_legged_c3bf.nodes.simulator.physics_loop`:
+  pacing to ``real_time_factor``, lockstep, the first-command wait), one state period
+  (1 / ``state_rate``) at a time. The node never blocks an executor: the executor it is added
+  to only runs its diagnostics timer, so it can share an executor (and a process) with other
+  nodes, or run as its own process (``simulator`` console script). The world is used under
+  :attr:`SimulatorNode.lock`.
+* ``/joint_commands`` (MotorCommand) is read by the physics thread itself, without an executor
+  (:mod:`~safe_legged_c3bf.nodes.simulator.command_bus`), and handed to the emulated motor
+  drivers.
 * publishes in sim time ``/imu`` and ``/joint_states`` (every state period), ``/odom`` and
   ``/clock`` (every round(``state_rate`` / ``odom_rate``) and round(``state_rate`` /
-  ``clock_rate``) state periods, so the rates are rounded: 125 Hz for the requested 100 Hz
-  at the A1's 250 Hz state rate, 100 Hz at the biped's 200 Hz; logged at start; /clock
-  stamped like the state
-  published with it), ``/obstacles/detections`` (noisy, no velocities),
-  ``/ground_truth/safety`` and ``/ground_truth/obstacles``, and ``/diagnostics`` (motor driver
-  mode, rejected commands, lockstep timeouts; WARN while the drivers damp after a command
-  timeout). The messages that change only in a few numbers (/clock, /odom, /imu,
-  /joint_states, /ground_truth/obstacles) are serialized once and patched in place
-  (:mod:`safe_legged_c3bf.nodes.cdr_template`);
-* before the first command (``wait_for_first_command``) physics does not advance: /clock and
-  the state at t = 0 are republished at 10 Hz so controllers in slow-to-discover processes
-  can start;
+  ``clock_rate``) state periods: 125 Hz for the requested 100 Hz at the A1's 250 Hz state
+  rate, 100 Hz at the biped's 200 Hz; logged at start)
+  (:mod:`~safe_legged_c3bf.nodes.simulator.state_publisher`), ``/obstacles/detections``
+  (noisy, no velocities), ``/ground_truth/safety`` and ``/ground_truth/obstacles``
+  (:mod:`~safe_legged_c3bf.nodes.simulator.ground_truth_publisher`), and ``/diagnostics``
+  (motor driver mode, rejected commands, lockstep timeouts; WARN while the drivers damp
+  after a command timeout);
 * stops when the scenario duration is reached: writes the JSON summary to ``summary_path``,
   logs it, sets :attr:`SimulatorNode.finished` (after the file is written) and publishes a
   final diagnostics status with message 'finished'; ``exit_on_finish`` then shuts the ROS
@@ -37,140 +29,46 @@ A thin wrapper around :class:`safe_legged_c3bf.sim.world.Simulation`:
   frames to ``video_path`` (GIF or MP4, :mod:`safe_legged_c3bf.sim.video`). In-process, a
   bringup can instead call ``node.simulation.record_every(n)`` and ``node.take_frames()``.
 
-Lockstep mode (``lockstep: true``), for deterministic runs: one control period = one state
-period (1 / ``state_rate``). After publishing the state stamped S, physics waits until a
-MotorCommand whose header.stamp >= S has arrived, applies it at sim time S and advances one
-period; commands stamped before S (computed from an older state, e.g. answers to the
-repeated t = 0 state) are ignored and counted. If no command arrives within
-``lockstep_timeout`` wall seconds, a warning is logged, the timeout counted
-(``lockstep_timeouts`` in the summary) and physics advances with the previous command.
-
-What is deterministic: a lockstep run with no lockstep timeouts, deterministic controllers
-that send one command per state, and the same scenario, seed and parameters is reproducible
-bit for bit (physics, obstacle motion, perception noise and drop-outs drawn at fixed sim
-times, ground truth). What is not: outside lockstep, when a command takes effect relative to
-the physics steps depends on process scheduling and DDS latency, so the robot's motion is not
-reproducible (the obstacle motion and the sequence of perception noise draws still are); the
-wall-time entries of the summary are never reproducible.
+Parameters: :data:`~safe_legged_c3bf.nodes.simulator.parameters.PARAMETERS`.
 """
 
 from __future__ import annotations
 
-import array
 import json
-import math
 import sys
 import threading
-import time
-import traceback
 from collections.abc import Callable
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray
-from nav_msgs.msg import Odometry
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import Clock, ClockType
-from rclpy.event_handler import PublisherEventCallbacks
-from rclpy.guard_condition import GuardCondition
-from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
-from rosgraph_msgs.msg import Clock as ClockMsg
-from sensor_msgs.msg import Imu, JointState
 
 from safe_legged_c3bf import topics
-from safe_legged_c3bf.nodes.cdr_template import CdrTemplate, time_parts
-from safe_legged_c3bf.nodes.ros_common import diagnostic_status, qos, run_node, to_time_msg
+from safe_legged_c3bf.nodes.ros_common import diagnostic_status, run_node, to_time_msg
+from safe_legged_c3bf.nodes.simulator.detection_publisher import DetectionPublisher
+from safe_legged_c3bf.nodes.simulator.ground_truth_publisher import GroundTruthPublisher
+from safe_legged_c3bf.nodes.simulator.parameters import PARAMETERS, LoopSettings, declare_parameters
+from safe_legged_c3bf.nodes.simulator.physics_loop import PhysicsLoop
+from safe_legged_c3bf.nodes.simulator.quiet_publisher import quiet_publisher
+from safe_legged_c3bf.nodes.simulator.state_publisher import StatePublisher
 from safe_legged_c3bf.sim.motor_driver import DriverMode
-from safe_legged_c3bf.sim.obstacles import ObstacleState
 from safe_legged_c3bf.sim.scenario import ScenarioError
-from safe_legged_c3bf.sim.world import Simulation, rotate, rotate_inverse
-from safe_legged_c3bf_msgs.msg import GroundTruthSafety, MotorCommand, Obstacle, ObstacleArray
+from safe_legged_c3bf.sim.world import Simulation
 
-#: Node parameters: name -> (default, description with units). config/simulator.yaml mirrors it.
-PARAMETERS: dict[str, tuple[Any, str]] = {
-    "scenario": ("quadruped_default", "scenario name (config/scenarios/<name>.yaml) or path"),
-    "seed": (-1, "random seed; -1 = the scenario's seed"),
-    "gui": (False, "open the PyBullet GUI instead of running headless (DIRECT)"),
-    "physics_rate": (1000.0, "physics steps per sim second (Hz)"),
-    "state_rate": (250.0, "/imu and /joint_states rate (Hz, sim time): the control rate and "
-                   "the lockstep period"),
-    "odom_rate": (100.0, "/odom rate (Hz, sim time, at most state_rate; rounded to a whole "
-                  "number of state periods): navigation nodes "
-                  "need no more, and each subscriber pays per message"),
-    "clock_rate": (100.0, "/clock rate (Hz, sim time, at most state_rate; rounded like "
-                   "odom_rate): the resolution of "
-                   "the other nodes' sim-time clocks"),
-    "ground_truth_rate": (50.0, "/ground_truth/* rate (Hz, sim time)"),
-    "detection_rate": (0.0, "/obstacles/detections rate (Hz, sim time); 0 = scenario's rate"),
-    "strip_detection_ids": (False, "publish detections with empty ids"),
-    "real_time_factor": (1.0, "sim seconds per wall second; 0 = as fast as possible"),
-    "max_lag": (0.05, "wall time (s) physics may fall behind the real-time schedule before "
-                "it stops catching up (it then runs slower than real time)"),
-    "wait_for_first_command": (True, "hold physics at t = 0 until the first MotorCommand"),
-    "command_timeout": (0.1, "sim time without a command before the drivers damp (s)"),
-    "damping_kd": (1.0, "damping gain of the drivers' damping mode (N m s/rad)"),
-    "lockstep": (False, "advance one state period only after a command for the last state"),
-    "lockstep_timeout": (1.0, "wall time to wait for that command before advancing (s)"),
-    "summary_path": ("", "write the run summary JSON here at the end / at shutdown"),
-    "diagnostics_period": (1.0, "wall period of /diagnostics (s)"),
-    "exit_on_finish": (False, "shut the ROS context down when the scenario ends (standalone)"),
-    "video_path": ("", "write the follow camera's video here (.gif or .mp4; '' = none)"),
-    "video_fps": (10.0, "video frames per sim second (each costs a 20-60 ms render)"),
-}
-
-_IDLE_PUBLISH_PERIOD = 0.1  # wall s between state republications while waiting
-
-
-_STAMP = ["header.stamp.sec", "header.stamp.nanosec"]
-
-
-def _xyz(prefix: str, axes: str = "xyz") -> list[str]:
-    return [f"{prefix}.{a}" for a in axes]
-
-
-def _stamp_ns(stamp: Any) -> int:
-    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
-
-
-def obstacle_to_msg(state: ObstacleState, msg: Obstacle | None = None) -> Obstacle:
-    """safe_legged_c3bf_msgs/Obstacle from an :class:`ObstacleState` (filled into ``msg``)."""
-    if msg is None:
-        msg = Obstacle()
-    msg.id = state.id
-    msg.plane = int(state.plane)
-    center, velocity = msg.center, msg.velocity
-    center.x, center.y, center.z = state.center.tolist()
-    velocity.x, velocity.y, velocity.z = state.velocity.tolist()
-    msg.semi_axis_a, msg.semi_axis_b = float(state.semi_axes[0]), float(state.semi_axes[1])
-    msg.orientation = float(state.orientation)
-    msg.extent = float(state.extent)
-    msg.position_covariance = state.position_covariance.reshape(-1).astype(float)
-    msg.velocity_covariance = state.velocity_covariance.reshape(-1).astype(float)
-    msg.velocity_source = int(state.velocity_source)
-    return msg
+__all__ = ["PARAMETERS", "SimulatorNode", "main"]
 
 
 class SimulatorNode(Node):
     """The simulator bridge node (see the module docstring)."""
 
     def __init__(self, **kwargs: Any) -> None:
-        """Create the node; ``kwargs`` go to rclpy's Node (context, parameter_overrides...)."""
+        """Create the node, start physics; ``kwargs`` go to rclpy's Node (context, overrides...)."""
         super().__init__("simulator", **kwargs)
-        for name, (default, description) in PARAMETERS.items():
-            self.declare_parameter(name, default, ParameterDescriptor(description=description))
-        p = {name: self.get_parameter(name).value for name in PARAMETERS}
-        self._params = p
-        self._check_parameters(p)
-
-        self._rtf = float(p["real_time_factor"])
-        self._lockstep = bool(p["lockstep"])
-        self._lockstep_timeout = float(p["lockstep_timeout"])
-        self._strip_ids = bool(p["strip_detection_ids"])
-        self._summary_path = str(p["summary_path"])
-        self._exit_on_finish = bool(p["exit_on_finish"])
+        p = declare_parameters(self)
         physics_dt = 1.0 / float(p["physics_rate"])
         seed = int(p["seed"])
-        self._sim = Simulation(
+        self._sim = sim = Simulation(
             str(p["scenario"]),
             physics_dt=physics_dt,
             gui=bool(p["gui"]),
@@ -178,144 +76,50 @@ class SimulatorNode(Node):
             command_timeout=float(p["command_timeout"]),
             damping_kd=float(p["damping_kd"]),
         )
-        sim = self._sim
-        rate = float(p["physics_rate"])
-        detection_rate = float(p["detection_rate"]) or sim.scenario.perception.rate
-        self._state_every = max(1, round(rate / float(p["state_rate"])))
-        self._clock_every = max(
-            self._state_every,
-            self._state_every * round(float(p["state_rate"]) / float(p["clock_rate"])),
-        )
-        self._odom_every = max(
-            self._state_every,
-            self._state_every * round(float(p["state_rate"]) / float(p["odom_rate"])),
-        )
-        self._gt_every = max(1, round(rate / float(p["ground_truth_rate"])))
-        self._det_every = max(1, round(rate / detection_rate))
-        self._max_lag = float(p["max_lag"])
-
-        # No QoS event handlers on the publishers: each is a waitable that the rclpy executor
-        # polls at every wake-up, which at ~1 kHz of wake-ups costs far more than the
-        # warnings they give (a subscriber with an incompatible QoS still warns on its side).
-        def publisher(msg_type: type, topic: topics.Topic):  # noqa: ANN202
-            return self.create_publisher(
-                msg_type, topic.name, qos(topic),
-                event_callbacks=PublisherEventCallbacks(use_default_callbacks=False),
-            )
-
-        self._pub_clock = publisher(ClockMsg, topics.CLOCK)
-        self._pub_odom = publisher(Odometry, topics.ODOM)
-        self._pub_imu = publisher(Imu, topics.IMU)
-        self._pub_joints = publisher(JointState, topics.JOINT_STATES)
-        self._pub_detections = publisher(ObstacleArray, topics.OBSTACLE_DETECTIONS)
-        self._pub_gt_safety = publisher(GroundTruthSafety, topics.GROUND_TRUTH_SAFETY)
-        self._pub_gt_obstacles = publisher(ObstacleArray, topics.GROUND_TRUTH_OBSTACLES)
-        self._pub_diag = publisher(DiagnosticArray, topics.DIAGNOSTICS)
-        # The motor drivers' command bus: /joint_commands is subscribed by a helper node that
-        # is never added to an executor; the physics thread takes the messages itself (and
-        # blocks on a wait set when it has to wait for one). At 500 Hz of commands, executor
-        # dispatch would cost more CPU than the physics, and commands reach the drivers even
-        # when a shared executor is busy.
-        self._bus = Node(
-            f"{self.get_name()}_motor_drivers",
-            context=self.context,
-            namespace=self.get_namespace(),
-            cli_args=kwargs.get("cli_args"),
-            start_parameter_services=False,
-            enable_rosout=False,
-        )
-        self._command_sub = self._bus.create_subscription(
-            MotorCommand, topics.JOINT_COMMANDS.name, lambda _msg: None,
-            qos(topics.JOINT_COMMANDS),
-        )
-        self._wake = GuardCondition(None, None, context=self.context)
-        self._wait_set = _rclpy.WaitSet(1, 1, 0, 0, 0, 0, self.context.handle)
+        settings = LoopSettings.from_parameters(p, sim.scenario.perception.rate)
+        self._settings = settings
+        self._summary_path = str(p["summary_path"])
+        self._exit_on_finish = bool(p["exit_on_finish"])
+        state = StatePublisher(self, sim, settings.clock_every, settings.odom_every)
+        detections = DetectionPublisher(self, sim, bool(p["strip_detection_ids"]))
+        truth = GroundTruthPublisher(self, sim)
+        self._pub_diag = quiet_publisher(self, topics.DIAGNOSTICS)
         #: Held by the physics thread while it uses the world; hold it to use
         #: :attr:`simulation` from another thread while the node runs.
         self.lock = threading.RLock()
-        self._stop = threading.Event()
-        self._error: str | None = None
-
-        # The state messages go out at the state rate: serialized once, patched in place.
-        odom = Odometry()
-        odom.header.frame_id, odom.child_frame_id = topics.ODOM_FRAME, topics.BASE_FRAME
-        self._odom = CdrTemplate(odom, {
-            "stamp": _STAMP,
-            "pose": _xyz("pose.pose.position") + _xyz("pose.pose.orientation", "xyzw"),
-            "twist": _xyz("twist.twist.linear") + _xyz("twist.twist.angular"),
-        })
-        joints = JointState()
-        joints.name = sim.joint_names
-        n = len(sim.joint_names)
-        for field in ("position", "velocity", "effort"):
-            setattr(joints, field, array.array("d", [0.0] * n))
-        self._joints = CdrTemplate(joints, {"stamp": _STAMP} | {
-            field: [f"{field}[{i}]" for i in range(n)]
-            for field in ("position", "velocity", "effort")
-        })
-        imu = Imu()
-        imu.header.frame_id = topics.BASE_FRAME
-        self._imu = CdrTemplate(imu, {
-            "stamp": _STAMP,
-            "orientation": _xyz("orientation", "xyzw"),
-            "angular_velocity": _xyz("angular_velocity"),
-            "linear_acceleration": _xyz("linear_acceleration"),
-        })
-        self._clock = CdrTemplate(ClockMsg(), {"stamp": ["clock.sec", "clock.nanosec"]})
-        self._last_world_velocity: tuple[float, tuple[float, float, float]] | None = None
-        self._gravity = float(sim.scenario.physics.gravity)
-        self._gt_safety = GroundTruthSafety()
-        self._gt_safety.header.frame_id = topics.ODOM_FRAME
-
-        self._gt_obstacles: CdrTemplate | None = None
-        self._detections = ObstacleArray()
-        self._detections.header.frame_id = topics.ODOM_FRAME
-        self._detection_pool = [Obstacle() for _ in sim.obstacles]
-        self._moving = [i for i, o in enumerate(sim.obstacles) if o.moving]
         self._finished = False
         self._summary_written = False
         self._finished_callbacks: list[Callable[[SimulatorNode], None]] = []
-        self._waiting = bool(p["wait_for_first_command"])
-        self._await_stamp: int | None = None
-        self._await_since = 0.0
-        self.lockstep_timeouts = 0
-        self.stale_commands = 0
-        self._anchor: tuple[float, float] | None = None  # (wall, sim) of the pacing
-        self._wall_start: float | None = None
-        self._wall_end: float | None = None
-        self._last_idle_publish = -math.inf
-        self._last_state_stamp = 0
-        self._last_mode = sim.driver_mode
-        self._last_reject_warning = -math.inf
-        self._video = None
-        if p["video_path"]:
-            from safe_legged_c3bf.sim.video import VideoWriter, frame_interval_steps
-
-            self._video = VideoWriter(str(p["video_path"]), float(p["video_fps"]))
-            sim.record_every(frame_interval_steps(float(p["video_fps"]), physics_dt))
-
+        self._video = self._open_video(p, physics_dt)
+        self._loop = PhysicsLoop(
+            self, sim, settings, self.lock,
+            state=state, truth=truth, detections=detections,
+            on_status=self._publish_diagnostics, on_finish=self._finish,
+            on_period=self._flush_video if self._video is not None else None,
+            cli_args=kwargs.get("cli_args"),
+        )
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._diag_timer = self.create_timer(
             float(p["diagnostics_period"]), self._publish_diagnostics, clock=steady
         )
-        self._publish_state()
-        self._publish_ground_truth()
-        self._last_idle_publish = time.monotonic()
-        if not self._waiting:
-            self._start_running()
-            if self._lockstep:  # the t = 0 state needs its command too
-                self._await_stamp, self._await_since = 0, time.monotonic()
         self.get_logger().info(
             f"scenario '{sim.scenario.name}' ({sim.scenario.robot.model}, "
-            f"{len(sim.obstacles)} obstacles, {sim.scenario.duration:g} s), physics "
-            f"{rate:g} Hz, state every {self._state_every} steps ({rate / self._state_every:g} "
-            f"Hz; /odom {rate / self._odom_every:g} Hz, /clock {rate / self._clock_every:g} Hz),"
-            f" real_time_factor "
-            f"{self._rtf:g}, lockstep {self._lockstep}"
-            + (", waiting for the first command" if self._waiting else "")
+            f"{len(sim.obstacles)} obstacles, {sim.scenario.duration:g} s), "
+            f"{settings.describe()}, real_time_factor "
+            f"{settings.real_time_factor:g}, lockstep {settings.lockstep}"
+            + (", waiting for the first command" if settings.wait_for_first_command else "")
         )
-        self._thread = threading.Thread(target=self._run, name="simulator_physics", daemon=True)
-        self._thread.start()
+        self._loop.start()
+
+    def _open_video(self, p: dict[str, Any], physics_dt: float):  # noqa: ANN202 - VideoWriter
+        """The video writer of ``video_path`` (None without), the world recording its frames."""
+        if not p["video_path"]:
+            return None
+        from safe_legged_c3bf.sim.video import VideoWriter, frame_interval_steps
+
+        video = VideoWriter(str(p["video_path"]), float(p["video_fps"]))
+        self._sim.record_every(frame_interval_steps(float(p["video_fps"]), physics_dt))
+        return video
 
     # ------------------------------------------------------------------ public API
 
@@ -332,12 +136,22 @@ class SimulatorNode(Node):
     @property
     def error(self) -> str | None:
         """Why the physics thread stopped on an exception (None while healthy)."""
-        return self._error
+        return self._loop.error
 
     @property
     def waiting_for_command(self) -> bool:
         """True while physics is held at t = 0 waiting for the first command."""
-        return self._waiting
+        return self._loop.waiting
+
+    @property
+    def lockstep_timeouts(self) -> int:
+        """Lockstep periods that advanced without their command."""
+        return self._loop.lockstep_timeouts
+
+    @property
+    def stale_commands(self) -> int:
+        """Lockstep commands ignored because stamped before the last state."""
+        return self._loop.stale_commands
 
     def add_finished_callback(self, callback: Callable[[SimulatorNode], None]) -> None:
         """Call ``callback(node)`` once when the scenario ends (immediately if it has).
@@ -360,27 +174,9 @@ class SimulatorNode(Node):
         with self.lock:
             return self._sim.take_frames()
 
-    def _summary_extra(self) -> dict[str, Any]:
-        wall = None
-        if self._wall_start is not None:
-            wall = (self._wall_end or time.monotonic()) - self._wall_start
-        return {
-            "lockstep": self._lockstep,
-            "lockstep_timeouts": self.lockstep_timeouts,
-            "stale_commands_ignored": self.stale_commands,
-            "real_time_factor": self._rtf,
-            "wall_time": wall,
-            "achieved_real_time_factor": (self._sim.time / wall) if wall else None,
-        }
-
     def destroy_node(self) -> None:
         """Stop physics, write the summary (if not yet written), close the world and node."""
-        self._stop.set()
-        self._wake.trigger()
-        if self._thread.is_alive() and self._thread is not threading.current_thread():
-            self._thread.join(timeout=10.0)
-        self._bus.destroy_node()
-        self._wake.destroy()
+        self._loop.stop()
         with self.lock:
             if not self._summary_written:
                 self._write_summary()
@@ -388,312 +184,27 @@ class SimulatorNode(Node):
             self._sim.close()
         super().destroy_node()
 
-    # ------------------------------------------------------------------ parameters
-
-    @staticmethod
-    def _check_parameters(p: dict[str, Any]) -> None:
-        positive = ("physics_rate", "state_rate", "odom_rate", "clock_rate", "ground_truth_rate",
-                    "max_lag", "command_timeout", "lockstep_timeout", "diagnostics_period")
-        for name in positive:
-            if not float(p[name]) > 0:
-                raise ValueError(f"parameter {name} must be > 0, got {p[name]!r}")
-        for name in ("detection_rate", "real_time_factor", "damping_kd"):
-            if not float(p[name]) >= 0:
-                raise ValueError(f"parameter {name} must be >= 0, got {p[name]!r}")
-        if p["video_path"]:
-            from safe_legged_c3bf.sim.video import check_video_path
-
-            check_video_path(str(p["video_path"]))
-            if not float(p["video_fps"]) > 0:
-                raise ValueError(f"parameter video_fps must be > 0, got {p['video_fps']!r}")
-        if float(p["state_rate"]) > float(p["physics_rate"]):
-            raise ValueError("parameter state_rate must not exceed physics_rate")
-
-    # ------------------------------------------------------------------ callbacks
-
-    def _start_running(self) -> None:
-        self._waiting = False
-        now = time.monotonic()
-        self._wall_start = now
-        self._anchor = (now, self._sim.time)
-
-    def _drain_commands(self) -> None:
-        """Take every MotorCommand waiting on the bus (physics thread)."""
-        handle = self._command_sub.handle
-        with handle:
-            while (taken := handle.take_message(MotorCommand, False)) is not None:
-                self._take_command(taken[0])
-
-    def _wait_for_command(self, timeout: float) -> None:
-        """Block until a MotorCommand arrives, :meth:`destroy_node` is called or ``timeout``."""
-        wait_set = self._wait_set
-        wait_set.clear_entities()
-        with self._command_sub.handle, self._wake.handle:
-            wait_set.add_subscription(self._command_sub.handle)
-            wait_set.add_guard_condition(self._wake.handle)
-            wait_set.wait(int(timeout * 1e9))
-
-    def _take_command(self, msg: MotorCommand) -> None:
-        if self._finished:
-            return
-        sim = self._sim
-        stamp = _stamp_ns(msg.header.stamp)
-        if self._lockstep and not self._waiting and stamp < self._last_state_stamp:
-            # Computed from an older state than the last one published: applying it would
-            # make the run depend on message timing.
-            self.stale_commands += 1
-            return
-        accepted = sim.set_command_arrays(msg.name, msg.q, msg.dq, msg.kp, msg.kd, msg.tau)
-        if not accepted:
-            now = time.monotonic()
-            if now - self._last_reject_warning > 1.0:
-                self._last_reject_warning = now
-                self.get_logger().warn(
-                    f"rejected a MotorCommand (non-finite, negative gains, unknown joints or "
-                    f"array sizes); {sim.rejected_commands} rejected so far"
-                )
-            return
-        if self._waiting:
-            self.get_logger().info("first MotorCommand received: physics starts")
-            self._start_running()
-        if self._await_stamp is not None and stamp >= self._await_stamp:
-            self._await_stamp = None
-
-    # ------------------------------------------------------------------ physics thread
-
-    def _run(self) -> None:
-        try:
-            while not self._stop.is_set():
-                action, delay = self._cycle()
-                if action == "stop":
-                    break
-                if action == "wait":  # for a command (or the lockstep timeout)
-                    self._wait_for_command(delay)
-                elif delay > 0.0:  # for the wall time of the next period
-                    time.sleep(delay)
-                else:
-                    time.sleep(0)  # hand the GIL to the executor's thread
-        except Exception as exc:  # noqa: BLE001 - reported, then the thread ends
-            if self.context.ok() and not self._stop.is_set():
-                self._error = f"{type(exc).__name__}: {exc}"
-                self.get_logger().error(
-                    f"physics thread stopped: {self._error}\n{traceback.format_exc()}"
-                )
-                try:
-                    self._publish_diagnostics()
-                except Exception:  # noqa: BLE001 - the context may be gone already
-                    pass
-
-    def _cycle(self) -> tuple[str, float]:
-        """One turn of the physics thread: take commands, then wait or advance one period.
-
-        Returns ('stop', 0), ('wait', timeout) for a command, ('sleep', delay) until the
-        next period is due, or ('go', 0) to go on at once.
-        """
-        with self.lock:
-            self._drain_commands()
-            if self._finished or self._stop.is_set():
-                return "stop", 0.0
-            now = time.monotonic()
-            if self._waiting:
-                if now - self._last_idle_publish >= _IDLE_PUBLISH_PERIOD:
-                    self._last_idle_publish = now
-                    self._publish_state()
-                return "wait", _IDLE_PUBLISH_PERIOD
-            if self._await_stamp is not None:
-                remaining = self._lockstep_timeout - (now - self._await_since)
-                if remaining > 0.0:
-                    return "wait", min(remaining, 0.1)
-                self.lockstep_timeouts += 1
-                self.get_logger().warn(
-                    f"lockstep: no MotorCommand for the state at t={self._sim.time:.3f} s "
-                    f"within {self._lockstep_timeout:g} s; advancing with the previous "
-                    f"command ({self.lockstep_timeouts} timeouts: this run is not "
-                    "deterministic)",
-                    throttle_duration_sec=5.0,
-                )
-                self._await_stamp = None
-                self._anchor = (now, self._sim.time)
-            if self._rtf > 0.0:
-                delay = self._pacing_delay(now)
-                if delay > 0.0:
-                    return "sleep", delay
-                if -delay > self._max_lag:  # cannot keep up: stop catching up
-                    self._anchor = (now, self._sim.time)
-            self._advance(self._steps_to_boundary())
-            if self._finished:
-                return "stop", 0.0
-            if self._rtf > 0.0 and self._await_stamp is None:
-                # Sleep until the next period is due right away; the commands that arrive
-                # meanwhile are taken when it starts.
-                delay = self._pacing_delay(time.monotonic())
-                if delay > 0.0:
-                    return "sleep", delay
-            return "go", 0.0
-
-    def _pacing_delay(self, now: float) -> float:
-        """Wall time (s) until the period starting at the current sim time is due (< 0: late)."""
-        assert self._anchor is not None
-        wall0, sim0 = self._anchor
-        return wall0 + (self._sim.time - sim0) / self._rtf - now
-
-    def _steps_to_boundary(self) -> int:
-        return self._state_every - self._sim.step_count % self._state_every
-
-    def _advance(self, steps: int) -> None:
-        sim = self._sim
-        for i in range(steps):
-            # Lockstep: commands only between periods. The first step's commands were just
-            # taken by the caller.
-            if i and not self._lockstep:
-                self._drain_commands()
-            sim.step(1)
-            k = sim.step_count
-            at_boundary = k % self._state_every == 0
-            if at_boundary:
-                self._publish_state()
-            if k % self._gt_every == 0:
-                self._publish_ground_truth()
-            if k % self._det_every == 0:
-                self._publish_detections()
-            if sim.finished:
-                self._finish()
-                return
-            if self._lockstep and at_boundary:
-                self._await_stamp = self._last_state_stamp
-                self._await_since = time.monotonic()
-        if self._video is not None:
-            self._flush_video()
-        mode = sim.driver_mode
-        if mode is not self._last_mode:
-            if mode is DriverMode.DAMPING:
-                self.get_logger().warn(
-                    f"no MotorCommand for {sim.driver.timeout:g} s (sim time): motor drivers "
-                    "switched to damping mode"
-                )
-            elif self._last_mode is DriverMode.DAMPING:
-                self.get_logger().info("MotorCommands again: motor drivers active")
-            self._last_mode = mode
-            self._publish_diagnostics()
-
-    # ------------------------------------------------------------------ publishing
-
-    def _publish_state(self) -> None:
-        sim = self._sim
-        sec, nanosec = time_parts(sim.time)
-        self._last_state_stamp = sec * 1_000_000_000 + nanosec
-        k, waiting = sim.step_count, self._waiting
-        if waiting or k % self._clock_every == 0:
-            self._clock.set("stamp", sec, nanosec)
-            self._pub_clock.publish(self._clock.bytes())
-        position, orientation, linear, angular = sim.base_pose_twist()
-        if waiting or k % self._odom_every == 0:
-            odom = self._odom
-            odom.set("stamp", sec, nanosec)
-            odom.set("pose", *position, *orientation)
-            odom.set("twist", *linear, *angular)
-            self._pub_odom.publish(odom.bytes())
-        self._publish_imu(sec, nanosec, orientation, linear, angular)
-        q, dq, tau = sim.joint_lists()
-        joints = self._joints
-        joints.set("stamp", sec, nanosec)
-        joints.set("position", *q)
-        joints.set("velocity", *dq)
-        joints.set("effort", *tau)
-        self._pub_joints.publish(joints.bytes())
-
-    def _publish_imu(self, sec: int, nanosec: int, orientation, linear, angular) -> None:  # noqa: ANN001
-        """/imu: orientation, angular velocity and specific force, in base_link.
-
-        The specific force is R^T (a + g), a the finite difference of the world-frame velocity
-        of base_link between two states (zero at the first). Plain floats: this runs at the
-        state rate, where numpy's per-call overhead for 3-vectors costs more than the math.
-        """
-        vx, vy, vz = rotate(orientation, linear)
-        t = self._sim.time
-        ax = ay = az = 0.0
-        last = self._last_world_velocity
-        if last is not None and t > last[0]:
-            t0, (ux, uy, uz) = last
-            ax, ay, az = (vx - ux) / (t - t0), (vy - uy) / (t - t0), (vz - uz) / (t - t0)
-        self._last_world_velocity = (t, (vx, vy, vz))
-        imu = self._imu
-        imu.set("stamp", sec, nanosec)
-        imu.set("orientation", *orientation)
-        imu.set("angular_velocity", *angular)
-        imu.set("linear_acceleration", *rotate_inverse(orientation, (ax, ay, az + self._gravity)))
-        self._pub_imu.publish(imu.bytes())
-
-    def _obstacle_array(self, states: list[ObstacleState]) -> ObstacleArray:
-        msg = ObstacleArray()
-        msg.header.stamp = to_time_msg(self._sim.time)
-        msg.header.frame_id = topics.ODOM_FRAME
-        msg.obstacles = [obstacle_to_msg(s) for s in states]
-        return msg
-
-    def _publish_detections(self) -> None:
-        detections = self._sim.detections(include_ids=not self._strip_ids)
-        # Obstacle messages are reused from frame to frame.
-        pool = self._detection_pool
-        pool.extend(Obstacle() for _ in range(len(detections) - len(pool)))
-        msg = self._detections
-        msg.header.stamp = to_time_msg(self._sim.time)
-        msg.obstacles = [
-            obstacle_to_msg(d, m)
-            for d, m in zip(detections, pool[: len(detections)], strict=True)
-        ]
-        self._pub_detections.publish(msg)
-
-    def _ground_truth_obstacles(self) -> bytes:
-        """/ground_truth/obstacles now, serialized: only the moving obstacles change."""
-        sim = self._sim
-        if self._gt_obstacles is None:
-            msg = self._obstacle_array(sim.obstacle_states())
-            self._gt_obstacles = CdrTemplate(msg, {"stamp": _STAMP} | {
-                f"moving{i}": _xyz(f"obstacles[{i}].center") + _xyz(f"obstacles[{i}].velocity")
-                for i in self._moving
-            })
-        template = self._gt_obstacles
-        t = sim.time
-        template.set("stamp", *time_parts(t))
-        for i in self._moving:
-            position, velocity = sim.obstacles[i].script.state(t)
-            template.set(f"moving{i}", *position.tolist(), *velocity.tolist())
-        return template.bytes()
-
-    def _publish_ground_truth(self) -> None:
-        sim = self._sim
-        gt = sim.ground_truth
-        msg = self._gt_safety
-        msg.header.stamp = to_time_msg(sim.time)
-        msg.in_collision = gt.in_collision
-        msg.collision_count = gt.collision_count
-        msg.min_distance = float(gt.min_distance)
-        msg.closest_obstacle_id = gt.closest_obstacle_id
-        msg.contact_obstacle_ids = list(gt.contact_obstacle_ids)
-        msg.fallen = gt.fallen
-        self._pub_gt_safety.publish(msg)
-        self._pub_gt_obstacles.publish(self._ground_truth_obstacles())
+    # ------------------------------------------------------------------ diagnostics
 
     def _publish_diagnostics(self) -> None:
         # Called from both threads; it only reads counters, so it takes no lock.
-        sim = self._sim
+        sim, loop = self._sim, self._loop
         mode = sim.driver_mode
-        if self._error is not None:
-            level, message = "error", f"physics thread stopped: {self._error}"
+        if loop.error is not None:
+            level, message = "error", f"physics thread stopped: {loop.error}"
         elif self._finished:
             level, message = "ok", "finished"
-        elif self._waiting:
+        elif loop.waiting:
             level, message = "ok", "waiting for the first MotorCommand (physics held at t=0)"
         elif mode is DriverMode.DAMPING:
             level, message = "warn", "command timeout: motor drivers in damping mode"
-        elif self._await_stamp is not None:
+        elif loop.awaiting_command:
             level, message = "ok", "lockstep: waiting for the MotorCommand of the last state"
         else:
             level, message = "ok", "running"
-        if not self._finished and self.lockstep_timeouts and level == "ok":
+        if not self._finished and loop.lockstep_timeouts and level == "ok":
             level = "warn"
-            message += f" ({self.lockstep_timeouts} lockstep timeouts)"
+            message += f" ({loop.lockstep_timeouts} lockstep timeouts)"
         gt = sim.ground_truth
         values = {
             "sim_time": f"{sim.time:.3f}",
@@ -702,18 +213,17 @@ class SimulatorNode(Node):
             "commands_received": sim.commands_received,
             "rejected_commands": sim.rejected_commands,
             "driver_timeouts": sim.driver_timeouts,
-            "lockstep": self._lockstep,
-            "lockstep_timeouts": self.lockstep_timeouts,
-            "stale_commands_ignored": self.stale_commands,
+            "lockstep": self._settings.lockstep,
+            "lockstep_timeouts": loop.lockstep_timeouts,
+            "stale_commands_ignored": loop.stale_commands,
             "collision_count": gt.collision_count,
             "min_distance": f"{sim.monitor.stats.min_distance:.4f}",
             "fallen": sim.monitor.stats.fell,
             "finished": self._finished,
         }
-        if self._wall_start is not None:
-            wall = (self._wall_end or time.monotonic()) - self._wall_start
-            if wall > 0:
-                values["achieved_real_time_factor"] = f"{sim.time / wall:.3f}"
+        wall = loop.wall_time()
+        if wall is not None and wall > 0:
+            values["achieved_real_time_factor"] = f"{sim.time / wall:.3f}"
         msg = DiagnosticArray()
         msg.header.stamp = to_time_msg(sim.time)
         msg.status = [diagnostic_status("simulator", level, message, values)]
@@ -722,6 +232,7 @@ class SimulatorNode(Node):
     # ------------------------------------------------------------------ end of run
 
     def _flush_video(self, close: bool = False) -> None:
+        """Append the frames recorded since the last call to the video; ``close``: finish it."""
         if self._video is None:
             return
         for frame in self._sim.take_frames():
@@ -733,7 +244,20 @@ class SimulatorNode(Node):
             )
             self._video = None
 
+    def _summary_extra(self) -> dict[str, Any]:
+        """The node's entries of the summary: lockstep counters and wall time (s)."""
+        wall = self._loop.wall_time()
+        return {
+            "lockstep": self._settings.lockstep,
+            "lockstep_timeouts": self._loop.lockstep_timeouts,
+            "stale_commands_ignored": self._loop.stale_commands,
+            "real_time_factor": self._settings.real_time_factor,
+            "wall_time": wall,
+            "achieved_real_time_factor": (self._sim.time / wall) if wall else None,
+        }
+
     def _write_summary(self) -> dict[str, Any]:
+        """Write the summary to ``summary_path`` (if set; errors are logged) and return it."""
         extra = self._summary_extra()
         if self._summary_path:
             try:
@@ -745,7 +269,7 @@ class SimulatorNode(Node):
         return self._sim.summary(extra)
 
     def _finish(self) -> None:
-        self._wall_end = time.monotonic()
+        """End of the scenario (physics thread): video, summary, 'finished', callbacks."""
         self._flush_video(close=True)
         summary = self._write_summary()
         self._summary_written = True

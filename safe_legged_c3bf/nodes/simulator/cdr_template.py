@@ -42,6 +42,15 @@ _CODES = {
 }
 
 
+#: Field paths of a message header's stamp (sec, nanosec), the usual first group.
+STAMP = ["header.stamp.sec", "header.stamp.nanosec"]
+
+
+def vector_fields(prefix: str, axes: str = "xyz") -> list[str]:
+    """Field paths of a vector's or quaternion's components: ``prefix.x``, ``prefix.y``..."""
+    return [f"{prefix}.{a}" for a in axes]
+
+
 def time_parts(seconds: float) -> tuple[int, int]:
     """(sec, nanosec) of builtin_interfaces/Time, as ``ros_common.to_time_msg`` computes them."""
     sec = math.floor(seconds)
