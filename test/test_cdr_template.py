@@ -12,8 +12,9 @@ from rclpy.serialization import deserialize_message
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
+from safe_legged_c3bf.nodes.messages import time_parts
 from safe_legged_c3bf.nodes.ros_common import to_time_msg
-from safe_legged_c3bf.nodes.simulator.cdr_template import CdrTemplate, time_parts
+from safe_legged_c3bf.nodes.simulator.cdr_template import CdrTemplate
 from safe_legged_c3bf_msgs.msg import Obstacle, ObstacleArray
 
 STAMP = ["header.stamp.sec", "header.stamp.nanosec"]

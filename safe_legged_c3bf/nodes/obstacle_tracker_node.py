@@ -50,6 +50,7 @@ from safe_legged_c3bf import topics
 from safe_legged_c3bf.inputs import StampGate, StampVerdict
 from safe_legged_c3bf.node_parameters import TRACKER_NODE_DEFAULTS
 from safe_legged_c3bf.nodes import ros_common
+from safe_legged_c3bf.nodes.messages import obstacle_to_msg
 from safe_legged_c3bf.rotations import matrix_to_quaternion
 from safe_legged_c3bf.tracking import (
     Detection,
@@ -148,25 +149,6 @@ def detections_from_msg(msg: ObstacleArray) -> list[Detection]:
         )
         for o in msg.obstacles
     ]
-
-
-def obstacle_to_msg(obs: TrackedObstacle, publish_unestimated_velocity: bool = False) -> Obstacle:
-    """Obstacle message of a tracked obstacle (velocity zero when not estimated, by default)."""
-    msg = Obstacle()
-    msg.id = obs.id
-    msg.plane = Obstacle.HORIZONTAL if obs.plane == ObstaclePlane.HORIZONTAL else Obstacle.VERTICAL
-    msg.center.x, msg.center.y, msg.center.z = (float(c) for c in obs.center)
-    if obs.velocity_estimated or publish_unestimated_velocity:
-        msg.velocity.x, msg.velocity.y, msg.velocity.z = (float(v) for v in obs.velocity)
-    msg.semi_axis_a, msg.semi_axis_b = float(obs.semi_axes[0]), float(obs.semi_axes[1])
-    msg.orientation = float(obs.orientation)
-    msg.extent = float(obs.extent)
-    msg.position_covariance = [float(x) for x in np.asarray(obs.position_covariance).reshape(9)]
-    msg.velocity_covariance = [float(x) for x in np.asarray(obs.velocity_covariance).reshape(9)]
-    msg.velocity_source = (
-        Obstacle.VELOCITY_ESTIMATED if obs.velocity_estimated else Obstacle.VELOCITY_UNKNOWN
-    )
-    return msg
 
 
 def ellipse_rotation(plane: ObstaclePlane | int, orientation: float) -> np.ndarray:
@@ -434,7 +416,13 @@ class ObstacleTrackerNode(Node):
         msg = ObstacleArray()
         msg.header.stamp = stamp
         msg.header.frame_id = frame_id
-        msg.obstacles = [obstacle_to_msg(o, raw_velocity) for o in obstacles]
+        msg.obstacles = [
+            obstacle_to_msg(
+                o, velocity_source=Obstacle.VELOCITY_ESTIMATED if o.velocity_estimated
+                else Obstacle.VELOCITY_UNKNOWN, send_velocity=o.velocity_estimated or raw_velocity,
+            )
+            for o in obstacles
+        ]
         self._pub.publish(msg)
         self.published += 1
 

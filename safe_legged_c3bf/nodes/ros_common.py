@@ -1,7 +1,8 @@
 """Helpers shared by the rclpy node wrappers.
 
-QoS from the topic contract, time stamps, odometry and twist conversions, diagnostics, and a
-standard ``main`` for a single node.
+QoS from the topic contract, the node clock, diagnostics, a publisher-count check and a
+standard ``main`` for a single node. Message conversions live in ``nodes/messages.py`` (the
+common ones are re-exported here for the nodes).
 """
 
 from __future__ import annotations
@@ -12,17 +13,21 @@ import time
 from collections.abc import Callable, Iterable
 
 import rclpy
-from builtin_interfaces.msg import Time as TimeMsg
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import Twist
-from nav_msgs.msg import Odometry
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from safe_legged_c3bf.base_state import BaseState
-from safe_legged_c3bf.gait_controller import VelocityCommand
+from safe_legged_c3bf.nodes.messages import (  # noqa: F401 - re-exported for the nodes
+    command_to_twist,
+    from_time_msg,
+    odometry_is_finite,
+    odometry_to_base_state,
+    to_time_msg,
+    twist_is_finite,
+    twist_to_command,
+)
 from safe_legged_c3bf.topics import Topic
 
 DIAGNOSTIC_LEVELS = {
@@ -92,66 +97,9 @@ def use_sim_time(node: Node, enabled: bool = True) -> None:
         node.set_parameters([Parameter("use_sim_time", Parameter.Type.BOOL, enabled)])
 
 
-def to_time_msg(seconds: float) -> TimeMsg:
-    """builtin_interfaces/Time from seconds."""
-    sec = math.floor(seconds)
-    return TimeMsg(sec=int(sec), nanosec=int(round((seconds - sec) * 1e9)) % 1_000_000_000)
-
-
-def from_time_msg(stamp: TimeMsg) -> float:
-    """Seconds from builtin_interfaces/Time."""
-    return stamp.sec + stamp.nanosec * 1e-9
-
-
 def now_seconds(node: Node) -> float:
     """The node's clock (sim time when use_sim_time is set) in seconds."""
     return node.get_clock().now().nanoseconds * 1e-9
-
-
-def odometry_to_base_state(msg: Odometry) -> BaseState:
-    """BaseState from nav_msgs/Odometry (pose in odom, twist in base_link)."""
-    p, q = msg.pose.pose.position, msg.pose.pose.orientation
-    v, w = msg.twist.twist.linear, msg.twist.twist.angular
-    return BaseState(
-        position=(p.x, p.y, p.z),
-        orientation=(q.x, q.y, q.z, q.w),
-        linear_velocity=(v.x, v.y, v.z),
-        angular_velocity=(w.x, w.y, w.z),
-        stamp=from_time_msg(msg.header.stamp),
-    )
-
-
-def twist_to_command(msg: Twist) -> VelocityCommand:
-    """VelocityCommand from a base_link Twist (linear.z = vertical body speed)."""
-    return VelocityCommand(msg.linear.x, msg.linear.y, msg.linear.z, msg.angular.z)
-
-
-def command_to_twist(cmd: VelocityCommand, out: Twist | None = None) -> Twist:
-    """Twist (base_link) from a VelocityCommand; ``out``: a Twist to fill instead of a new one.
-
-    Reusing one Twist for a publisher is safe: ``publish`` serialises it before returning.
-    """
-    msg = Twist() if out is None else out
-    msg.linear.x, msg.linear.y, msg.linear.z = float(cmd.vx), float(cmd.vy), float(cmd.vz)
-    msg.angular.z = float(cmd.yaw_rate)
-    return msg
-
-
-def twist_is_finite(msg: Twist) -> bool:
-    """True when every component of the Twist is finite."""
-    values = (msg.linear.x, msg.linear.y, msg.linear.z, msg.angular.x, msg.angular.y, msg.angular.z)
-    return all(math.isfinite(v) for v in values)
-
-
-def odometry_is_finite(msg: Odometry) -> bool:
-    """True when pose, twist and quaternion norm are finite and the quaternion is non-zero."""
-    p, q = msg.pose.pose.position, msg.pose.pose.orientation
-    values = [p.x, p.y, p.z, q.x, q.y, q.z, q.w]
-    t = msg.twist.twist
-    values += [t.linear.x, t.linear.y, t.linear.z, t.angular.x, t.angular.y, t.angular.z]
-    if not all(map(math.isfinite, values)):
-        return False
-    return q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w > 1e-12  # norm > 1e-6
 
 
 def diagnostic_status(

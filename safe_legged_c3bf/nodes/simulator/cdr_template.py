@@ -28,7 +28,6 @@ Example::
 from __future__ import annotations
 
 import copy
-import math
 import struct
 from collections.abc import Sequence
 from typing import Any
@@ -49,12 +48,6 @@ STAMP = ["header.stamp.sec", "header.stamp.nanosec"]
 def vector_fields(prefix: str, axes: str = "xyz") -> list[str]:
     """Field paths of a vector's or quaternion's components: ``prefix.x``, ``prefix.y``..."""
     return [f"{prefix}.{a}" for a in axes]
-
-
-def time_parts(seconds: float) -> tuple[int, int]:
-    """(sec, nanosec) of builtin_interfaces/Time, as ``ros_common.to_time_msg`` computes them."""
-    sec = math.floor(seconds)
-    return int(sec), int(round((seconds - sec) * 1e9)) % 1_000_000_000
 
 
 def _walk(msg: Any, path: str) -> tuple[Any, str, int | None]:

@@ -10,8 +10,8 @@ from __future__ import annotations
 from rclpy.node import Node
 
 from safe_legged_c3bf import topics
+from safe_legged_c3bf.nodes.messages import obstacle_to_msg
 from safe_legged_c3bf.nodes.ros_common import to_time_msg
-from safe_legged_c3bf.nodes.simulator.obstacle_msgs import obstacle_to_msg
 from safe_legged_c3bf.nodes.simulator.quiet_publisher import quiet_publisher
 from safe_legged_c3bf.sim.world import Simulation
 from safe_legged_c3bf_msgs.msg import Obstacle, ObstacleArray

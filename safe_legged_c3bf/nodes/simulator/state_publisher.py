@@ -23,10 +23,10 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import Imu, JointState
 
 from safe_legged_c3bf import topics
+from safe_legged_c3bf.nodes.messages import time_parts
 from safe_legged_c3bf.nodes.simulator.cdr_template import (
     STAMP,
     CdrTemplate,
-    time_parts,
     vector_fields,
 )
 from safe_legged_c3bf.nodes.simulator.quiet_publisher import quiet_publisher
