@@ -32,7 +32,7 @@ from typing import Any
 
 import yaml
 
-from safe_legged_c3bf.run.quiet_stderr import quiet_stderr
+from safe_legged_c3bf.run.quiet_stderr import quiet_stderr, stderr_to_file
 from safe_legged_c3bf.run.report import RunContext, format_summary, write_run_folder
 from safe_legged_c3bf.run.supervisor import (
     ManagedProcess,
@@ -393,33 +393,6 @@ def _err(progress: Progress | None, text: str) -> None:
 # ------------------------------------------------------------------------------ signals
 
 
-class _StderrToFile:
-    """Send fd 2 (rcutils node logs) to a file; Python's sys.stderr keeps the terminal."""
-
-    def __init__(self, path: Path) -> None:
-        """Start redirecting to ``path``."""
-        path.parent.mkdir(parents=True, exist_ok=True)
-        sys.stderr.flush()
-        self._saved_fd = os.dup(2)
-        self._saved_stream = sys.stderr
-        sys.stderr = open(  # noqa: SIM115 - closed in restore()
-            os.dup(self._saved_fd), "w", buffering=1, encoding="utf-8", errors="replace"
-        )
-        with open(path, "ab") as log:
-            os.dup2(log.fileno(), 2)
-
-    def restore(self) -> None:
-        """Put fd 2 and sys.stderr back."""
-        if self._saved_fd < 0:
-            return
-        sys.stderr.flush()
-        os.dup2(self._saved_fd, 2)
-        os.close(self._saved_fd)
-        self._saved_fd = -1
-        sys.stderr.close()
-        sys.stderr = self._saved_stream
-
-
 class StopRequest:
     """Records SIGINT / SIGTERM / SIGHUP instead of raising, so that stopping is orderly."""
 
@@ -648,7 +621,7 @@ class Bringup:
         redirect = None
         try:
             if opts.in_process and not opts.verbose:
-                redirect = _StderrToFile(plan.run_dir / "logs" / "in_process.log")
+                redirect = stderr_to_file(plan.run_dir / "logs" / "in_process.log")
             self.monitor = MonitorNode(cli_args=_remap_args(plan.remaps) or None)
             self.monitor.goal = plan.context.goal
             self.monitor.goal_tolerance = plan.context.goal_tolerance
