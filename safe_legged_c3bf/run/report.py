@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from safe_legged_c3bf.run.figure import figure
 from safe_legged_c3bf.run.monitor import INTERVENING, STATUS_NAMES, ObstacleTrack, RunData
 
 PLOTS = {
@@ -315,16 +316,6 @@ def load_timeseries(path: Path) -> RunData:
 # ----------------------------------------------------------------------------- plots
 
 
-def _figure(rows: int = 1, cols: int = 1, size: tuple[float, float] = (8, 6)):  # noqa: ANN202
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=size, dpi=100)
-    FigureCanvasAgg(fig)
-    axes = fig.subplots(rows, cols, squeeze=False)
-    return fig, axes
-
-
 def _shade_intervals(ax, t: np.ndarray, mask: np.ndarray, color: str, label: str) -> None:  # noqa: ANN001
     """Shade the time spans where ``mask`` holds."""
     if t.size == 0 or not mask.any():
@@ -341,7 +332,7 @@ def plot_top_view(path: Path, data: RunData, ctx: RunContext) -> None:
     """Path, goal and obstacles (true shape, inflated circle, path of moving ones) from above."""
     from matplotlib.patches import Circle, Ellipse, Rectangle
 
-    fig, axes = _figure(size=(8, 7))
+    fig, axes = figure((8, 7))
     ax = axes[0, 0]
     odom = data.arrays()["odom"]
     safety = data.arrays()["safety"]
@@ -400,7 +391,7 @@ def plot_side_view(path: Path, data: RunData, ctx: RunContext) -> bool:
     bars = [t for t in data.obstacles.values() if t.plane == 1 and t.xyz]
     if not bars:
         return False
-    fig, axes = _figure(size=(9, 4.5))
+    fig, axes = figure((9, 4.5))
     ax = axes[0, 0]
     for track in bars:
         x0, _, z0 = track.xyz[0]
@@ -431,7 +422,7 @@ def plot_side_view(path: Path, data: RunData, ctx: RunContext) -> bool:
 
 def plot_barrier(path: Path, data: RunData, ctx: RunContext) -> None:
     """Barrier value h(t) per obstacle."""
-    fig, axes = _figure(size=(9, 4.5))
+    fig, axes = figure((9, 4.5))
     ax = axes[0, 0]
     for oid, rows in sorted(data.barrier.items()):
         arr = np.array(rows).reshape(-1, 2)
@@ -460,7 +451,7 @@ def plot_commands(path: Path, data: RunData, ctx: RunContext) -> None:
         t_ref, ref = arr["cmd_vel"][:, 0], arr["cmd_vel"][:, 1:5]
         t_out, out = arr["cmd_vel_safe"][:, 0], arr["cmd_vel_safe"][:, 1:5]
         t, intervening = t_out, np.zeros(len(t_out), dtype=bool)
-    fig, axes = _figure(4, 1, size=(9, 8))
+    fig, axes = figure((9, 8), 4, 1)
     labels = ["vx (m/s)", "vy (m/s)", "vz (m/s)", "yaw rate (rad/s)"]
     for k, label in enumerate(labels):
         ax = axes[k, 0]
@@ -479,7 +470,7 @@ def plot_commands(path: Path, data: RunData, ctx: RunContext) -> None:
 def plot_clearance(path: Path, data: RunData, ctx: RunContext) -> None:
     """Ground-truth minimum robot-obstacle distance over time."""
     safety = data.arrays()["safety"]
-    fig, axes = _figure(size=(9, 4))
+    fig, axes = figure((9, 4))
     ax = axes[0, 0]
     if safety.size:
         _shade_intervals(ax, safety[:, 0], safety[:, 1] > 0, "tab:red", "in collision")
