@@ -108,7 +108,26 @@ def summarize(
         None if data.wall_last is None or data.wall_last <= (data.wall_start or 0)
         else (data.sim_last - data.sim_start) / (data.wall_last - data.wall_start)
     )
-    # goal
+    summary["goal"] = _goal_summary(odom, ctx)
+    summary["path_length"] = (
+        float(np.sum(np.hypot(np.diff(odom[:, 1]), np.diff(odom[:, 2])))) if len(odom) > 1 else 0.0
+    )
+    summary["final_position"] = [float(odom[-1, 1]), float(odom[-1, 2])] if odom.size else None
+    summary.update(_safety_summary(safety, data))
+    summary["ground_truth_source"] = "/ground_truth/safety" if safety.size else None
+    if simulator:
+        _apply_simulator_summary(summary, simulator)
+    summary["filter"] = _filter_summary(state, data)
+    summary["messages"] = {
+        "odom": int(len(odom)), "cmd_vel": len(data.cmd_vel),
+        "cmd_vel_safe": len(data.cmd_vel_safe), "filter_state": int(len(state)),
+        "ground_truth_safety": int(len(safety)), "obstacles": len(data.obstacles),
+    }
+    return summary
+
+
+def _goal_summary(odom: np.ndarray, ctx: RunContext) -> dict[str, Any]:
+    """Goal position, tolerance, final and closest distance, when it was reached."""
     goal: dict[str, Any] = {"position": list(ctx.goal) if ctx.goal else None,
                             "tolerance": ctx.goal_tolerance}
     if odom.size and ctx.goal is not None:
@@ -120,62 +139,56 @@ def summarize(
         goal["time_reached"] = float(odom[within[0], 0]) if within.size else None
     else:
         goal.update(final_distance=None, min_distance=None, reached=False, time_reached=None)
-    summary["goal"] = goal
-    summary["path_length"] = (
-        float(np.sum(np.hypot(np.diff(odom[:, 1]), np.diff(odom[:, 2])))) if len(odom) > 1 else 0.0
-    )
-    summary["final_position"] = [float(odom[-1, 1]), float(odom[-1, 2])] if odom.size else None
-    # safety (ground truth)
-    if safety.size:
-        clearance = safety[:, 3]
-        finite = np.isfinite(clearance)
-        i = int(np.argmin(np.where(finite, clearance, np.inf))) if finite.any() else None
-        summary["collision"] = bool(safety[:, 1].any() or safety[:, 2].max() > 0)
-        summary["collision_count"] = int(safety[:, 2].max())
-        summary["collision_time"] = _durations_sum(safety[:, 0], safety[:, 1] > 0)
-        summary["obstacles_touched"] = sorted(data.contacts)
-        summary["fallen"] = bool(safety[:, 4].any())
-        summary["min_clearance"] = _finite(clearance[i]) if i is not None else None
-        summary["min_clearance_time"] = float(safety[i, 0]) if i is not None else None
-        summary["min_clearance_obstacle"] = data.closest[i] if i is not None else None
-    else:
-        summary.update(collision=None, collision_count=None, collision_time=None,
-                       obstacles_touched=[], fallen=None, min_clearance=None,
-                       min_clearance_time=None, min_clearance_obstacle=None)
-    summary["ground_truth_source"] = "/ground_truth/safety" if safety.size else None
-    if simulator:
-        _apply_simulator_summary(summary, simulator)
-    # filter
+    return goal
+
+
+def _safety_summary(safety: np.ndarray, data: RunData) -> dict[str, Any]:
+    """Collision, fall and clearance figures from the /ground_truth/safety samples."""
+    if not safety.size:
+        return dict(collision=None, collision_count=None, collision_time=None,
+                    obstacles_touched=[], fallen=None, min_clearance=None,
+                    min_clearance_time=None, min_clearance_obstacle=None)
+    clearance = safety[:, 3]
+    finite = np.isfinite(clearance)
+    i = int(np.argmin(np.where(finite, clearance, np.inf))) if finite.any() else None
+    return {
+        "collision": bool(safety[:, 1].any() or safety[:, 2].max() > 0),
+        "collision_count": int(safety[:, 2].max()),
+        "collision_time": _durations_sum(safety[:, 0], safety[:, 1] > 0),
+        "obstacles_touched": sorted(data.contacts),
+        "fallen": bool(safety[:, 4].any()),
+        "min_clearance": _finite(clearance[i]) if i is not None else None,
+        "min_clearance_time": float(safety[i, 0]) if i is not None else None,
+        "min_clearance_obstacle": data.closest[i] if i is not None else None,
+    }
+
+
+def _filter_summary(state: np.ndarray, data: RunData) -> dict[str, Any]:
+    """Filter cycles, solvers, intervention and status shares, solve times, lowest h."""
     filt: dict[str, Any] = {"cycles": int(len(state)), "solvers": sorted(data.solver_names)}
-    if state.size:
-        w = _durations(state[:, 0])
-        status = state[:, 1].astype(int)
-        total = float(w.sum()) or 1.0
-        filt["intervention_share"] = float(w[np.isin(status, list(INTERVENING))].sum() / total)
-        filt["status_share"] = {
-            STATUS_NAMES.get(s, str(s)): float(w[status == s].sum() / total)
-            for s in sorted(set(status.tolist()))
-        }
-        solve_ms = state[:, 3] * 1e3
-        solve_ms = solve_ms[np.isfinite(solve_ms)]
-        filt["solve_time_ms"] = {
-            "median": float(np.median(solve_ms)) if solve_ms.size else None,
-            "p99": float(np.percentile(solve_ms, 99)) if solve_ms.size else None,
-            "max": float(solve_ms.max()) if solve_ms.size else None,
-        }
-        h = state[:, 2]
-        h = h[np.isfinite(h)]
-        filt["min_h"] = float(h.min()) if h.size else None
-    else:
+    if not state.size:
         filt.update(intervention_share=None, status_share={},
                     solve_time_ms={"median": None, "p99": None, "max": None}, min_h=None)
-    summary["filter"] = filt
-    summary["messages"] = {
-        "odom": int(len(odom)), "cmd_vel": len(data.cmd_vel),
-        "cmd_vel_safe": len(data.cmd_vel_safe), "filter_state": int(len(state)),
-        "ground_truth_safety": int(len(safety)), "obstacles": len(data.obstacles),
+        return filt
+    w = _durations(state[:, 0])
+    status = state[:, 1].astype(int)
+    total = float(w.sum()) or 1.0
+    filt["intervention_share"] = float(w[np.isin(status, list(INTERVENING))].sum() / total)
+    filt["status_share"] = {
+        STATUS_NAMES.get(s, str(s)): float(w[status == s].sum() / total)
+        for s in sorted(set(status.tolist()))
     }
-    return summary
+    solve_ms = state[:, 3] * 1e3
+    solve_ms = solve_ms[np.isfinite(solve_ms)]
+    filt["solve_time_ms"] = {
+        "median": float(np.median(solve_ms)) if solve_ms.size else None,
+        "p99": float(np.percentile(solve_ms, 99)) if solve_ms.size else None,
+        "max": float(solve_ms.max()) if solve_ms.size else None,
+    }
+    h = state[:, 2]
+    h = h[np.isfinite(h)]
+    filt["min_h"] = float(h.min()) if h.size else None
+    return filt
 
 
 def _apply_simulator_summary(summary: dict[str, Any], sim: dict[str, Any]) -> None:
