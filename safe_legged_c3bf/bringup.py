@@ -32,6 +32,7 @@ from typing import Any
 
 import yaml
 
+from safe_legged_c3bf.run.console import Progress, StopRequest, progress_text, say
 from safe_legged_c3bf.run.quiet_stderr import quiet_stderr, stderr_to_file
 from safe_legged_c3bf.run.report import RunContext, format_summary, write_run_folder
 from safe_legged_c3bf.run.supervisor import (
@@ -61,8 +62,6 @@ OVERRIDE_TARGETS = {
 }
 EXIT_OK, EXIT_FAILED, EXIT_STARTUP = 0, 1, 2
 EXIT_SIGNAL = {signal.SIGINT: 130, signal.SIGTERM: 143, signal.SIGHUP: 129}
-PROGRESS_PERIOD_TTY = 0.25
-PROGRESS_PERIOD_LOG = 5.0
 HOUSEKEEPING_PERIOD = 0.1
 #: Sim seconds a --stop-on-outcome run goes on after its deciding event (data to plot).
 OUTCOME_HOLD = 1.0
@@ -330,92 +329,6 @@ def _filter_inflation(spec, filter_spec: NodeSpec) -> tuple[float, float, float]
         return tuple(float(v) for v in values.values())  # type: ignore[return-value]
 
 
-# ------------------------------------------------------------------------------ output
-
-
-class Progress:
-    """The live progress line: rewritten in place on a TTY, one line every few s otherwise."""
-
-    def __init__(self, stream=None, period: float | None = None) -> None:  # noqa: ANN001
-        """Write to ``stream`` (default stdout) every ``period`` s (default by stream kind)."""
-        self.stream = stream or sys.stdout
-        self.tty = self.stream.isatty()
-        default = PROGRESS_PERIOD_TTY if self.tty else PROGRESS_PERIOD_LOG
-        self.period = default if period is None else max(float(period), 0.05)
-        self._last = -math.inf
-        self._width = 0
-
-    def update(self, text: str, force: bool = False) -> None:
-        """Show ``text`` if the period has passed (or ``force``)."""
-        now = time.monotonic()
-        if not force and now - self._last < self.period:
-            return
-        self._last = now
-        if self.tty:
-            pad = max(self._width - len(text), 0)
-            self.stream.write("\r" + text + " " * pad)
-            self._width = len(text)
-        else:
-            self.stream.write(text + "\n")
-        self.stream.flush()
-
-    def clear(self) -> None:
-        """End the rewritten line before other output."""
-        if self.tty and self._width:
-            self.stream.write("\r" + " " * self._width + "\r")
-            self.stream.flush()
-            self._width = 0
-
-
-def progress_text(monitor, duration: float) -> str:  # noqa: ANN001
-    """'t 12.3/40.0 s | RTF 0.97 | goal 3.21 m | filter ACTIVE'."""
-    t = monitor.sim_time
-    rtf = monitor.real_time_factor()
-    dist = monitor.distance_to_goal()
-    parts = [
-        "t   -.-" if t is None else f"t {t:5.1f}/{duration:.1f} s",
-        "RTF  -.--" if rtf is None else f"RTF {rtf:5.2f}",
-        "goal   -.-- m" if dist is None else f"goal {dist:5.2f} m",
-        f"filter {monitor.status_text}",
-    ]
-    safety = monitor.data.safety
-    if safety and safety[-1][2] > 0:
-        parts.append(f"COLLISIONS {int(safety[-1][2])}")
-    return " | ".join(parts)
-
-
-def _err(progress: Progress | None, text: str) -> None:
-    if progress is not None:
-        progress.clear()
-    print(f"bringup: {text}", file=sys.stderr, flush=True)
-
-
-# ------------------------------------------------------------------------------ signals
-
-
-class StopRequest:
-    """Records SIGINT / SIGTERM / SIGHUP instead of raising, so that stopping is orderly."""
-
-    def __init__(self) -> None:
-        """Install the handlers (main thread only)."""
-        self.signum: int | None = None
-        self._previous = {}
-        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
-            self._previous[sig] = signal.signal(sig, self._handler)
-
-    def _handler(self, signum: int, frame) -> None:  # noqa: ANN001
-        if self.signum is None:
-            self.signum = signum
-
-    def __bool__(self) -> bool:
-        return self.signum is not None
-
-    def restore(self) -> None:
-        """Put the previous handlers back."""
-        for sig, handler in self._previous.items():
-            signal.signal(sig, handler)
-
-
 # ------------------------------------------------------------------------------ running
 
 
@@ -541,7 +454,7 @@ class Bringup:
             self.progress.update(f"starting nodes: {len(names)} of {count} up")
             self.executor.spin_once(timeout_sec=0.05)
         if not self.stop_request:
-            _err(self.progress, f"only {len(names)} of {count} nodes visible after "
+            say(self.progress, f"only {len(names)} of {count} nodes visible after "
                  f"{min(timeout, self.opts.startup_timeout):g} s; starting {LAST_NODE} anyway")
 
     def _echo_line(self, name: str):  # noqa: ANN202
@@ -686,7 +599,7 @@ class Bringup:
                     self.executor.remove_node(node)
                 node.destroy_node()
             except Exception as err:  # noqa: BLE001 - report and go on stopping the rest
-                _err(None, f"{name}: error while stopping: {err!r}")
+                say(None, f"{name}: error while stopping: {err!r}")
 
     _done = False
     _stopped_early = False
@@ -720,7 +633,7 @@ class Bringup:
                 # Keep the simulator running a little: the report shows the fail-safe at work
                 # (the robot stopping without the dead node) from ground truth.
                 failed = (t if t is not None else 0.0, now)
-                _err(self.progress, f"{self.outcome.reason}: watching the fail-safe for "
+                say(self.progress, f"{self.outcome.reason}: watching the fail-safe for "
                      f"{FAILURE_WATCH_SIM:g} s of sim time")
             if failed is not None:
                 if (t is not None and t >= failed[0] + FAILURE_WATCH_SIM) or (
@@ -813,7 +726,7 @@ class Bringup:
         ctx.outcome, ctx.reason = outcome.kind, outcome.reason
         if outcome.kind == "node_died":
             label = "traceback" if self.supervisor is None else "last lines of its stderr"
-            _err(None, outcome.reason + (
+            say(None, outcome.reason + (
                 f"; {label}:" if outcome.details else " (no stderr output)"))
             for line in outcome.details:
                 print(f"    {line}", file=sys.stderr)
@@ -822,7 +735,7 @@ class Bringup:
                 print(f"  full log: {log}", file=sys.stderr)
             print("bringup: stopped the other nodes", file=sys.stderr, flush=True)
         elif outcome.kind != "completed":
-            _err(None, f"{outcome.kind.replace('_', ' ')}: {outcome.reason}")
+            say(None, f"{outcome.kind.replace('_', ' ')}: {outcome.reason}")
         extra: dict[str, Any] = {
             "exit_code": outcome.exit_code,
             "command": sys.argv,
@@ -850,7 +763,7 @@ class Bringup:
             video = self.opts.video.resolve()
             extra["video"] = str(video) if video.is_file() else None
             if not video.is_file():
-                _err(None, f"--video: the simulator wrote no video to {video} (its node must "
+                say(None, f"--video: the simulator wrote no video to {video} (its node must "
                      "support the video_path / video_fps parameters)")
         monitor = self.monitor
         report = write_run_folder(
