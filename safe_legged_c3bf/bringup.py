@@ -25,53 +25,36 @@ import signal
 import sys
 import time
 import traceback
-from dataclasses import dataclass, field
-from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from safe_legged_c3bf.run.console import Progress, StopRequest, progress_text, say
-from safe_legged_c3bf.run.quiet_stderr import quiet_stderr, stderr_to_file
-from safe_legged_c3bf.run.report import RunContext, format_summary, write_run_folder
+from safe_legged_c3bf.run.graph import GRAPH_NODES, LAST_NODE
+from safe_legged_c3bf.run.outcome import (
+    EXIT_FAILED,
+    EXIT_OK,
+    EXIT_SIGNAL,
+    EXIT_STARTUP,
+    Outcome,
+    StartupError,
+)
+from safe_legged_c3bf.run.parameters import merged_parameters
+from safe_legged_c3bf.run.plan import RunPlan, make_plan
+from safe_legged_c3bf.run.quiet_stderr import stderr_to_file
+from safe_legged_c3bf.run.report import format_summary, write_run_folder
 from safe_legged_c3bf.run.supervisor import (
     ManagedProcess,
-    NodeSpec,
     Supervisor,
     describe_returncode,
 )
 
 DEFAULT_SCENARIO = "quadruped_default"
-NODE_PACKAGE = "safe_legged_c3bf.nodes"
-#: Graph nodes in start order: (name, module). The gait controller's robot comes from the
-#: scenario; the simulator is started first so that it is up when the others subscribe.
-GRAPH_NODES = (
-    ("simulator", f"{NODE_PACKAGE}.simulator_node"),
-    ("obstacle_tracker", f"{NODE_PACKAGE}.obstacle_tracker_node"),
-    ("reference_planner", f"{NODE_PACKAGE}.reference_planner_node"),
-    ("safety_filter", f"{NODE_PACKAGE}.safety_filter_node"),
-    ("gait_controller", f"{NODE_PACKAGE}.gait_controller_node"),
-)
-RECORDER_MODULE = "safe_legged_c3bf.run.recorder"
-#: Started once the other nodes are in the graph: its first command starts physics.
-LAST_NODE = "gait_controller"
-#: Scenario override sections -> node names.
-OVERRIDE_TARGETS = {
-    "filter": "safety_filter", "tracker": "obstacle_tracker", "controller": "gait_controller",
-}
-EXIT_OK, EXIT_FAILED, EXIT_STARTUP = 0, 1, 2
-EXIT_SIGNAL = {signal.SIGINT: 130, signal.SIGTERM: 143, signal.SIGHUP: 129}
 HOUSEKEEPING_PERIOD = 0.1
 #: Sim seconds a --stop-on-outcome run goes on after its deciding event (data to plot).
 OUTCOME_HOLD = 1.0
 #: After a node dies or freezes, the run goes on this long (sim s; at most the wall s) so the
 #: report shows the remaining graph's fail-safe (the robot stopping) before the run ends.
 FAILURE_WATCH_SIM, FAILURE_WATCH_WALL = 2.0, 10.0
-
-
-class StartupError(RuntimeError):
-    """The run could not be started (message is for the user)."""
 
 
 # ------------------------------------------------------------------------------ arguments
@@ -139,220 +122,7 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-# ------------------------------------------------------------------------------ the plan
-
-
-@dataclass
-class RunPlan:
-    """Everything decided before anything starts."""
-
-    scenario: Any  # safe_legged_c3bf.sim.scenario.Scenario
-    scenario_file: Path
-    run_dir: Path
-    specs: list[NodeSpec]
-    recorder: NodeSpec | None
-    context: RunContext
-    remaps: list[str] = field(default_factory=list)
-
-
-def _default_run_dir(name: str) -> Path:
-    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-    run_dir = Path("runs") / f"{name}-{stamp}"
-    k = 1
-    while run_dir.exists():
-        k += 1
-        run_dir = Path("runs") / f"{name}-{stamp}-{k}"
-    return run_dir
-
-
-def _node_overrides(opts: argparse.Namespace) -> dict[str, str]:
-    out = {}
-    names = {n for n, _ in GRAPH_NODES}
-    for item in opts.node:
-        name, sep, module = item.partition("=")
-        if not sep or not module or name not in names:
-            raise StartupError(
-                f"--node {item!r}: expected NAME=MODULE with NAME one of {', '.join(sorted(names))}"
-            )
-        out[name] = module
-    return out
-
-
-def _config_file(node_name: str) -> list[Path]:
-    from safe_legged_c3bf.config import config_path
-
-    try:
-        path = config_path(f"{node_name}.yaml")
-    except FileNotFoundError:
-        return []
-    return [path] if path.is_file() else []
-
-
-def _robot_profile(kind: str) -> dict[str, dict[str, Any]]:
-    """Per-robot node parameters from config/robots/<kind>.yaml (node name -> values)."""
-    from safe_legged_c3bf.config import config_path, load_yaml
-
-    kind = "quadruped" if kind == "a1" else kind
-    try:
-        profile = load_yaml(config_path("robots", f"{kind}.yaml"))
-    except FileNotFoundError:
-        return {}
-    nodes = {name for name, _ in GRAPH_NODES}
-    for node_name, values in profile.items():
-        if node_name not in nodes or not isinstance(values, dict):
-            raise StartupError(
-                f"config/robots/{kind}.yaml: '{node_name}' must be one of {sorted(nodes)} "
-                "with a mapping of parameters"
-            )
-    return profile
-
-
-
-
-def make_plan(opts: argparse.Namespace) -> RunPlan:
-    """Load the scenario, choose the run folder and the parameters of every node."""
-    with quiet_stderr():
-        import pybullet  # noqa: F401 - imported once, quietly, for the scenario checks
-    from safe_legged_c3bf.sim.robots import robot_spec
-    from safe_legged_c3bf.sim.scenario import ScenarioError, load_scenario, resolve_scenario
-
-    try:
-        source = resolve_scenario(opts.scenario)
-        raw = yaml.safe_load(source.read_text(encoding="utf-8")) or {}
-        if not isinstance(raw, dict):
-            raise ScenarioError(f"{source}: expected a YAML mapping")
-        if opts.duration is not None:
-            if not opts.duration > 0:
-                raise StartupError("--duration must be positive")
-            raw["duration"] = float(opts.duration)
-        if opts.seed is not None:
-            raw["seed"] = int(opts.seed)
-        raw.setdefault("name", source.stem)
-        scenario = load_scenario(source)  # validates the original file with a clear message
-    except ScenarioError as err:
-        raise StartupError(str(err)) from None
-    except OSError as err:
-        raise StartupError(f"scenario {opts.scenario}: {err}") from None
-    if opts.video is not None and opts.video.suffix.lower() not in (".gif", ".mp4"):
-        raise StartupError(f"--video {opts.video}: the file must end in .gif or .mp4")
-    if opts.record is not None and opts.record.suffix.lower() != ".mcap":
-        raise StartupError(f"--record {opts.record}: the file must end in .mcap")
-
-    run_dir = (opts.out or _default_run_dir(scenario.name)).resolve()
-    run_dir.mkdir(parents=True, exist_ok=True)
-    scenario_file = run_dir / "scenario.yaml"
-    scenario_file.write_text(
-        "# Scenario as run (overrides from the bringup command line applied).\n"
-        + yaml.safe_dump(raw, sort_keys=False), encoding="utf-8",
-    )
-    try:
-        scenario = load_scenario(scenario_file)
-    except ScenarioError as err:
-        raise StartupError(str(err)) from None
-
-    modules = dict(GRAPH_NODES) | _node_overrides(opts)
-    params: dict[str, dict[str, Any]] = {name: {} for name, _ in GRAPH_NODES}
-    params["simulator"].update(
-        scenario=str(scenario_file), gui=bool(opts.gui),
-        summary_path=str(run_dir / "simulator_summary.json"),
-    )
-    params["simulator"]["lockstep"] = bool(opts.lockstep)
-    if opts.real_time_factor is not None:
-        if not opts.real_time_factor >= 0:
-            raise StartupError("--real-time-factor must be >= 0")
-        params["simulator"]["real_time_factor"] = float(opts.real_time_factor)
-    if not opts.in_process:
-        # The simulator process exits 0 when the scenario ends; in-process, the bringup polls
-        # SimulatorNode.finished instead (shutting the shared context down would stop all).
-        params["simulator"]["exit_on_finish"] = True
-    if opts.video is not None:
-        params["simulator"].update(
-            video_path=str(opts.video.resolve()), video_fps=float(opts.video_fps)
-        )
-    params["reference_planner"]["scenario"] = str(scenario_file)  # goal + planner section
-    params["safety_filter"]["enabled"] = not opts.no_filter
-    params["gait_controller"]["robot"] = scenario.robot.kind
-    for node_name, values in _robot_profile(scenario.robot.kind).items():
-        params[node_name].update(values)
-    for section, values in scenario.overrides.items():
-        target = OVERRIDE_TARGETS.get(section)
-        if target:
-            params[target].update(values)
-    if opts.no_filter:
-        params["safety_filter"]["enabled"] = False
-    specs = [
-        NodeSpec(name=name, module=modules[name], parameters=params[name],
-                 params_files=_config_file(name))
-        for name, _ in GRAPH_NODES
-    ]
-    recorder = None
-    if opts.record is not None:
-        recorder = NodeSpec(name="recorder", module=RECORDER_MODULE,
-                            args=[str(opts.record.resolve())])
-    width, height, margin = _filter_inflation(
-        robot_spec(scenario.robot.model), specs[[s.name for s in specs].index("safety_filter")]
-    )
-    ctx = RunContext(
-        scenario=scenario.name, robot=scenario.robot.kind,
-        goal=tuple(scenario.goal.position), goal_tolerance=scenario.goal.tolerance,
-        duration=scenario.duration, robot_width=width, robot_height=height,
-        safety_margin=margin, filter_enabled=bool(params["safety_filter"].get("enabled", True)),
-        mode="in-process" if opts.in_process else "processes",
-    )
-    for remap in opts.remap:
-        if ":=" not in remap:
-            raise StartupError(f"--remap {remap!r}: expected FROM:=TO")
-    return RunPlan(scenario, scenario_file, run_dir, specs, recorder, ctx, list(opts.remap))
-
-
-def _filter_inflation(spec, filter_spec: NodeSpec) -> tuple[float, float, float]:  # noqa: ANN001
-    """Robot width, height and safety margin the filter inflates obstacles with.
-
-    The filter's defaults, then config/safety_filter.yaml, then the scenario's overrides; the
-    simulator's robot description when the filter's parameters cannot be read.
-    """
-    values: dict[str, Any] = {"robot_width": spec.width, "robot_height": spec.height,
-                              "safety_margin": 0.0}
-    try:
-        from dataclasses import asdict
-
-        from safe_legged_c3bf.filtering.params import FilterParams
-
-        defaults = asdict(FilterParams())
-        values.update({k: defaults[k] for k in values if k in defaults})
-    except (ImportError, TypeError, ValueError):
-        pass
-    merged = _parameter_dict(filter_spec)
-    try:
-        return tuple(float(merged.get(k, values[k])) for k in values)  # type: ignore[return-value]
-    except (TypeError, ValueError):
-        return tuple(float(v) for v in values.values())  # type: ignore[return-value]
-
-
 # ------------------------------------------------------------------------------ running
-
-
-@dataclass
-class Outcome:
-    """How the run ended."""
-
-    kind: str = "completed"  # completed | node_died | startup_failed | interrupted | stalled
-    reason: str = ""
-    exit_code: int = EXIT_OK
-    failed_node: str | None = None
-    details: list[str] = field(default_factory=list)
-
-
-def _parameter_dict(spec: NodeSpec) -> dict[str, Any]:
-    """Merged parameters of a node: its config files first, then its overrides."""
-    merged: dict[str, Any] = {}
-    for path in spec.params_files:
-        data = yaml.safe_load(Path(path).read_text(encoding="utf-8")) or {}
-        for key, section in data.items():
-            if isinstance(section, dict) and key in (spec.name, f"/{spec.name}", "/**"):
-                merged.update(section.get("ros__parameters", {}) or {})
-    merged.update(spec.parameters)
-    return merged
 
 
 def find_node_class(module_name: str) -> type:
@@ -478,7 +248,7 @@ class Bringup:
             cls = find_node_class(spec.module)
             try:
                 node = cls(
-                    parameter_overrides=_rclpy_parameters(_parameter_dict(spec)),
+                    parameter_overrides=_rclpy_parameters(merged_parameters(spec)),
                     cli_args=cli or None,
                 )
             except Exception as err:
