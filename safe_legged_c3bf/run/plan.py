@@ -1,6 +1,6 @@
 """The run plan: everything decided before anything starts.
 
-:func:`make_plan` loads the scenario (command-line overrides applied), chooses the run
+:func:`make_plan` loads the scenario once (command-line overrides applied), chooses the run
 folder and writes the scenario as run to it, and gives every node its module and its
 parameters (:mod:`.parameters`); the report's context comes from the same parameters.
 """
@@ -8,6 +8,7 @@ parameters (:mod:`.parameters`); the report's context comes from the same parame
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
@@ -64,13 +65,16 @@ def _default_run_dir(name: str) -> Path:
     return run_dir
 
 
-def _read_scenario(opts: argparse.Namespace) -> tuple[dict[str, Any], Any]:
-    """(mapping as run, the scenario file validated as it is): --duration / --seed applied."""
-    from safe_legged_c3bf.sim.scenario import ScenarioError, load_scenario, resolve_scenario
+def load_scenario_once(opts: argparse.Namespace) -> tuple[dict[str, Any], Any]:
+    """(mapping as run, validated Scenario): the file read once, --duration / --seed applied."""
+    from safe_legged_c3bf.sim.scenario import ScenarioError, parse_scenario, resolve_scenario
 
     try:
         source = resolve_scenario(opts.scenario)
-        raw = yaml.safe_load(source.read_text(encoding="utf-8")) or {}
+        try:
+            raw = yaml.safe_load(source.read_text(encoding="utf-8")) or {}
+        except yaml.YAMLError as err:
+            raise ScenarioError(f"{source}: cannot read scenario: {err}") from None
         if not isinstance(raw, dict):
             raise ScenarioError(f"{source}: expected a YAML mapping")
         if opts.duration is not None:
@@ -80,7 +84,13 @@ def _read_scenario(opts: argparse.Namespace) -> tuple[dict[str, Any], Any]:
         if opts.seed is not None:
             raw["seed"] = int(opts.seed)
         raw.setdefault("name", source.stem)
-        scenario = load_scenario(source)  # validates the original file with a clear message
+        try:
+            scenario = parse_scenario(raw, name=source.stem, source=str(source))
+        except ScenarioError as err:
+            applied = [f"--{k} {v:g}" for k, v in (("duration", opts.duration),
+                                                   ("seed", opts.seed)) if v is not None]
+            label = f"{source} (with {', '.join(applied)})" if applied else str(source)
+            raise ScenarioError(f"{label}: {err}") from None
     except ScenarioError as err:
         raise StartupError(str(err)) from None
     except OSError as err:
@@ -110,17 +120,12 @@ def make_plan(opts: argparse.Namespace) -> RunPlan:
     with quiet_stderr():
         import pybullet  # noqa: F401 - imported once, quietly, for the scenario checks
 
-    from safe_legged_c3bf.sim.scenario import ScenarioError, load_scenario
-
-    raw, scenario = _read_scenario(opts)
+    raw, scenario = load_scenario_once(opts)
     _check_output_files(opts)
     run_dir = (opts.out or _default_run_dir(scenario.name)).resolve()
     run_dir.mkdir(parents=True, exist_ok=True)
     scenario_file = _write_scenario(run_dir, raw)
-    try:
-        scenario = load_scenario(scenario_file)
-    except ScenarioError as err:
-        raise StartupError(str(err)) from None
+    scenario = dataclasses.replace(scenario, source=str(scenario_file))
 
     modules = node_modules(opts.node)
     params = node_parameters(opts, scenario, scenario_file, run_dir)
