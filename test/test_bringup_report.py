@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from safe_legged_c3bf.run.monitor import ObstacleTrack, RunData
+from safe_legged_c3bf.run.plots import PLOTS
 from safe_legged_c3bf.run.report import (
-    PLOTS,
     RunContext,
     format_summary,
     main,

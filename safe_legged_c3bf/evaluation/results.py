@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from safe_legged_c3bf.evaluation.runner import RUN_FAILURES
+from safe_legged_c3bf.run.figure import figure
 
 #: Columns of results.csv, in order.
 RUN_COLUMNS = (
@@ -340,12 +341,8 @@ def write_results(
 
 
 def _figure(size: tuple[float, float] = (9, 4.5)):  # noqa: ANN202
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=size, dpi=100)
-    FigureCanvasAgg(fig)
-    return fig, fig.add_subplot(1, 1, 1)
+    fig, axes = figure(size)  # the run report's Agg figure, one axes
+    return fig, axes[0, 0]
 
 
 def _group_labels(records, keys=("robot", "kind")) -> list[tuple]:  # noqa: ANN001

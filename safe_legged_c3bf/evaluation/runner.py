@@ -51,6 +51,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from safe_legged_c3bf.run.process_group import stop_groups
+
 #: Outcomes in priority order (the first that applies names the run).
 OUTCOMES = (
     "startup_failed", "node_died", "wall_timeout", "interrupted", "collided", "fell",
@@ -352,14 +354,7 @@ class Runner:
         with self._lock:
             self._stopping = True
             active = list(self._active.values())
-        for a in active:
-            _signal_group(a.proc, signal.SIGINT)
-        deadline = time.monotonic() + STOP_GRACE
-        for a in active:
-            try:
-                a.proc.wait(timeout=max(deadline - time.monotonic(), 0.1))
-            except subprocess.TimeoutExpired:
-                _signal_group(a.proc, signal.SIGKILL)
+        stop_groups([a.proc for a in active], [(time.monotonic() + STOP_GRACE, signal.SIGKILL)])
 
     # ------------------------------------------------------------------ internals
 
@@ -407,12 +402,8 @@ class Runner:
                     code = proc.wait(timeout=limit)
                 except subprocess.TimeoutExpired:
                     timed_out = True
-                    _signal_group(proc, signal.SIGINT)
-                    try:
-                        code = proc.wait(timeout=STOP_GRACE)
-                    except subprocess.TimeoutExpired:
-                        _signal_group(proc, signal.SIGKILL)
-                        code = proc.wait()
+                    stop_groups([proc], [(time.monotonic() + STOP_GRACE, signal.SIGKILL)])
+                    code = proc.wait()
             finally:
                 with self._lock:
                     self._active.pop(spec.run_id, None)
@@ -463,14 +454,6 @@ def _child_env() -> dict[str, str]:
     env = dict(os.environ)
     env["PYTHONUNBUFFERED"] = "1"
     return env
-
-
-def _signal_group(proc: subprocess.Popen, sig: int) -> None:
-    """Send ``sig`` to the process group of ``proc`` (its own session), ignoring races."""
-    try:
-        os.killpg(proc.pid, sig)
-    except (ProcessLookupError, PermissionError):
-        pass
 
 
 def _read_report(path: Path) -> dict[str, Any] | None:

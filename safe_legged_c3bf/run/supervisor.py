@@ -26,6 +26,7 @@ from typing import Any
 import yaml
 
 from safe_legged_c3bf.run.child import SUPERVISOR_ENV
+from safe_legged_c3bf.run.process_group import group_alive, signal_group, stop_groups
 
 #: Seconds between the first SIGINT and the last SIGKILL when stopping.
 STOP_TIMEOUT = 4.5
@@ -145,11 +146,7 @@ class ManagedProcess:
 
     def signal_group(self, sig: int) -> bool:
         """Send ``sig`` to the child's process group; False if the group is gone."""
-        try:
-            os.killpg(self.pid, sig)
-            return True
-        except (ProcessLookupError, PermissionError):
-            return False
+        return signal_group(self.pid, sig)
 
     def frozen(self) -> bool:
         """True when the process is stopped (SIGSTOP/SIGTSTP: state T in /proc)."""
@@ -163,13 +160,7 @@ class ManagedProcess:
 
     def group_alive(self) -> bool:
         """True while any process of the child's process group exists."""
-        if self.popen.poll() is None:
-            return True
-        try:
-            os.killpg(self.pid, 0)
-            return True
-        except (ProcessLookupError, PermissionError):
-            return False
+        return group_alive(self.popen)
 
     def describe_exit(self) -> str:
         """'simulator (pid 123) killed by SIGKILL' etc."""
@@ -264,24 +255,16 @@ class Supervisor:
         start = time.monotonic()
         deadline = start + STOP_TIMEOUT if deadline is None else deadline
         total = max(deadline - start, 0.3)
-        escalated: list[ManagedProcess] = []
         for proc in procs:
             proc.stopping = True
-            if proc.poll() is None:
-                proc.signal_group(signal.SIGCONT)  # a frozen child must run to handle SIGINT
-                proc.signal_group(signal.SIGINT)
         steps = [
             (start + min(SIGINT_GRACE, total * 0.45), signal.SIGTERM),
             (start + min(SIGINT_GRACE + SIGTERM_GRACE, total * 0.8), signal.SIGKILL),
         ]
-        for until, next_signal in steps:
-            while time.monotonic() < until and any(p.poll() is None for p in procs):
-                time.sleep(0.02)
-            for proc in procs:
-                if proc.poll() is None:
-                    proc.signal_group(next_signal)
-                    if proc not in escalated:
-                        escalated.append(proc)
+        # wake: a frozen child must run to handle SIGINT
+        hard = stop_groups([p.popen for p in procs], steps, wake=True)
+        by_popen = {id(p.popen): p for p in procs}
+        escalated = [by_popen[id(popen)] for popen in hard]
         # The leaders are gone or SIGKILLed; reap them and clear what is left of their groups.
         while time.monotonic() < deadline and any(p.group_alive() for p in procs):
             time.sleep(0.02)
