@@ -18,6 +18,7 @@ from rclpy.node import Node
 
 from safe_legged_c3bf import topics
 from safe_legged_c3bf.nodes.ros_common import from_time_msg
+from safe_legged_c3bf.rotations import yaw_from_quaternion
 from safe_legged_c3bf.run.recorder import qos
 
 #: SafetyFilterState status codes -> names (the .msg constants).
@@ -35,10 +36,6 @@ OBSTACLE_SAMPLE_PERIOD = 0.1
 QUEUE_DEPTH = 100
 #: Diagnostic status changes kept for the report.
 MAX_EVENTS = 2000
-
-
-def _yaw(q) -> float:  # noqa: ANN001 - geometry_msgs/Quaternion
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
 
 
 @dataclass
@@ -190,7 +187,8 @@ class MonitorNode(Node):
         t = self._stamp(msg.header.stamp)
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
         v, w = msg.twist.twist.linear, msg.twist.twist.angular
-        self.data.odom.append((t, p.x, p.y, p.z, _yaw(q), v.x, v.y, v.z, w.z))
+        yaw = yaw_from_quaternion(q.x, q.y, q.z, q.w)
+        self.data.odom.append((t, p.x, p.y, p.z, yaw, v.x, v.y, v.z, w.z))
         if (self.goal_time is None and self.goal is not None
                 and math.dist((p.x, p.y), self.goal) <= self.goal_tolerance):
             self.goal_time = t
