@@ -10,9 +10,8 @@ Where the names come from:
 
 * safety filter: the fields of :class:`~safe_legged_c3bf.filtering.params.FilterParams`
   (the node declares exactly these);
-* obstacle tracker: the fields of ``TrackerConfig`` (except the nested ``track``) and of
-  ``TrackConfig``, plus :data:`TRACKER_NODE_DEFAULTS` (the node's own parameters, which the
-  tracker node imports from here);
+* obstacle tracker: :class:`~safe_legged_c3bf.tracking.params.ObstacleTrackerParams` (its
+  fields, then those of ``TrackerConfig`` and ``TrackConfig``: the node declares these);
 * reference planner: :data:`PLANNER_DEFAULTS` and :data:`PLANNER_NODE_DEFAULTS`, which the
   planner node imports from here;
 * gait controller: :data:`CONTROLLER_DEFAULTS`, which the gait controller node imports from
@@ -66,19 +65,6 @@ PLANNER_NODE_DEFAULTS: dict[str, object] = {
     "constant_yaw_rate": 0.0,
 }
 
-#: The obstacle tracker node's parameters that are not tracker configuration, with defaults
-#: (the node imports them from here as ``obstacle_tracker_node.NODE_DEFAULTS``).
-TRACKER_NODE_DEFAULTS: dict[str, object] = {
-    "rate": 30.0,
-    "marker_rate": 10.0,
-    "marker_inflation": 0.15,
-    "detections_timeout": 0.5,
-    "diagnostics_period": 1.0,
-    "publish_unestimated_velocity": False,
-    "max_future_stamp": 0.1,
-    "max_message_bytes": 262144,
-}
-
 #: The gait controller node's parameters, with defaults.
 CONTROLLER_DEFAULTS: dict[str, object] = {
     "robot": "quadruped",
@@ -111,11 +97,9 @@ def filter_parameter_defaults() -> dict[str, object]:
 
 def tracker_parameter_defaults() -> dict[str, object]:
     """The obstacle tracker node's parameters: node extras, tracker and track configuration."""
-    from safe_legged_c3bf.tracking import TrackConfig, TrackerConfig
+    from safe_legged_c3bf.tracking.params import ObstacleTrackerParams
 
-    config = asdict(TrackerConfig())
-    config.pop("track")
-    return {**TRACKER_NODE_DEFAULTS, **config, **asdict(TrackConfig())}
+    return ObstacleTrackerParams.defaults()
 
 
 def planner_parameter_defaults() -> dict[str, object]:

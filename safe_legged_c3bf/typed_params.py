@@ -30,8 +30,8 @@ from typing import Any, ClassVar, Self
 
 __all__ = [
     "FINITE", "FINITE_OR_NAN", "FLAG", "INTEGER", "NON_EMPTY", "NON_NEGATIVE", "POSITIVE",
-    "TEXT", "ParamSpec", "Rule", "TypedParams", "at_least", "group", "interval", "one_of",
-    "optional", "param", "param_like", "vector",
+    "POSITIVE_OR_INF", "TEXT", "ParamSpec", "Rule", "TypedParams", "at_least", "group",
+    "interval", "one_of", "optional", "param", "param_like", "vector",
 ]
 
 
@@ -67,6 +67,9 @@ def _integer(value: Any) -> bool:
 
 
 POSITIVE = Rule("a finite number > 0", lambda v: _finite(v) and v > 0, -1.0)
+POSITIVE_OR_INF = Rule(
+    "a number > 0 (inf = no limit)", lambda v: _number(v) and v > 0, -1.0
+)
 NON_NEGATIVE = Rule("a finite number >= 0", lambda v: _finite(v) and v >= 0, -1.0)
 FINITE = Rule("a finite number", _finite, math.inf)
 FINITE_OR_NAN = Rule(

@@ -31,10 +31,8 @@ def test_scenario_module_does_not_import_ros():
 
 def test_lists_match_the_nodes():
     pytest.importorskip("rclpy")
-    from safe_legged_c3bf.nodes import obstacle_tracker_node, reference_planner_node
+    from safe_legged_c3bf.nodes import reference_planner_node
 
-    assert np_.TRACKER_NODE_DEFAULTS == obstacle_tracker_node.NODE_DEFAULTS
-    assert _same(np_.tracker_parameter_defaults(), obstacle_tracker_node.parameter_defaults())
     assert _same(np_.planner_parameter_defaults(), reference_planner_node.parameter_defaults())
 
 
