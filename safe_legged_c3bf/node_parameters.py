@@ -12,8 +12,7 @@ Where the names come from:
   (the node declares exactly these);
 * obstacle tracker: :class:`~safe_legged_c3bf.tracking.params.ObstacleTrackerParams` (its
   fields, then those of ``TrackerConfig`` and ``TrackConfig``: the node declares these);
-* reference planner: :data:`PLANNER_DEFAULTS` and :data:`PLANNER_NODE_DEFAULTS`, which the
-  planner node imports from here;
+* reference planner: :class:`~safe_legged_c3bf.planning.params.ReferencePlannerParams`;
 * gait controller: :data:`CONTROLLER_DEFAULTS`, which the gait controller node imports from
   here (its gait parameters come from its ``controller_config`` file, not from parameters).
 
@@ -22,48 +21,7 @@ Where the names come from:
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict
-
-#: Body height (m, odom z of base_link) the reference planner holds, per robot kind.
-NOMINAL_HEIGHT = {"quadruped": 0.28, "biped": 0.82}
-
-#: Reference planner parameters mapped onto PlannerConfig fields (same names), with defaults.
-PLANNER_DEFAULTS: dict[str, object] = {
-    "mode": "goal",
-    "max_vx": 0.5,
-    "max_vx_backward": 0.25,
-    "max_vy": 0.3,
-    "max_vz": 0.2,
-    "max_yaw_rate": 1.0,
-    "max_linear_accel": 0.0,
-    "max_yaw_accel": 0.0,
-    "k_speed": 0.8,
-    "k_heading": 2.0,
-    "k_yaw": 1.5,
-    "k_z": 2.0,
-    "z_nominal": NOMINAL_HEIGHT["quadruped"],
-    "hold_height": True,
-    "goal_tolerance": 0.05,
-    "resume_distance": 0.15,
-    "yaw_tolerance": 0.05,
-    "yaw_resume_tolerance": 0.15,
-    "heading_slowdown_angle": math.pi / 3.0,
-}
-#: The reference planner's remaining parameters, with defaults.
-PLANNER_NODE_DEFAULTS: dict[str, object] = {
-    "rate": 50.0,
-    "odom_timeout": 0.5,
-    "diagnostics_period": 1.0,
-    "scenario": "",
-    "goal_x": math.nan,
-    "goal_y": math.nan,
-    "goal_yaw": math.nan,
-    "constant_vx": 0.0,
-    "constant_vy": 0.0,
-    "constant_vz": 0.0,
-    "constant_yaw_rate": 0.0,
-}
 
 #: The gait controller node's parameters, with defaults.
 CONTROLLER_DEFAULTS: dict[str, object] = {
@@ -104,7 +62,9 @@ def tracker_parameter_defaults() -> dict[str, object]:
 
 def planner_parameter_defaults() -> dict[str, object]:
     """The reference planner node's parameters, with defaults."""
-    return {**PLANNER_NODE_DEFAULTS, **PLANNER_DEFAULTS}
+    from safe_legged_c3bf.planning.params import ReferencePlannerParams
+
+    return ReferencePlannerParams.defaults()
 
 
 def controller_parameter_defaults() -> dict[str, object]:

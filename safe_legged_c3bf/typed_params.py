@@ -86,14 +86,17 @@ def at_least(minimum: int) -> Rule:
     return Rule(f"an integer >= {minimum}", lambda v: _integer(v) and v >= minimum, minimum - 1)
 
 
-def interval(low: float, high: float, closed_high: bool = False, text: str = "") -> Rule:
-    """A finite number in (low, high), or in (low, high] with ``closed_high``."""
+def interval(low: float, high: float, closed_high: bool = False, high_text: str = "") -> Rule:
+    """A finite number in (low, high), or in (low, high] with ``closed_high``.
+
+    ``high_text`` names the upper bound in messages ("pi/2" rather than 1.5707963267948966).
+    """
     bracket = "]" if closed_high else ")"
 
     def accepts(v: Any) -> bool:
         return _finite(v) and low < v and (v <= high if closed_high else v < high)
 
-    return Rule(f"a number in ({text or low}, {text or high}{bracket}", accepts, high + 1.0)
+    return Rule(f"a number in ({low}, {high_text or high}{bracket}", accepts, high + 1.0)
 
 
 def one_of(*choices: str) -> Rule:

@@ -8,7 +8,6 @@ from pathlib import Path
 
 import pytest
 
-from safe_legged_c3bf import node_parameters as np_
 from safe_legged_c3bf.sim.scenario import ScenarioError, parse_scenario
 
 REPO = Path(__file__).resolve().parents[1]
@@ -27,19 +26,6 @@ def test_scenario_module_does_not_import_ros():
     out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True,
                          check=True, env={"PYTHONPATH": str(REPO)}).stdout
     assert out.strip().splitlines()[-1] == "[]"
-
-
-def test_lists_match_the_nodes():
-    pytest.importorskip("rclpy")
-    from safe_legged_c3bf.nodes import reference_planner_node
-
-    assert _same(np_.planner_parameter_defaults(), reference_planner_node.parameter_defaults())
-
-
-def _same(a, b):
-    """Equal dicts, NaN equal to NaN."""
-    nan = {k for k in a if a[k] != a[k] and b.get(k) != b.get(k)}
-    return a.keys() == b.keys() and all(a[k] == b[k] for k in a.keys() - nan)
 
 
 def test_gait_controller_declares_the_listed_parameters():
