@@ -13,8 +13,8 @@ Where the names come from:
 * obstacle tracker: :class:`~safe_legged_c3bf.tracking.params.ObstacleTrackerParams` (its
   fields, then those of ``TrackerConfig`` and ``TrackConfig``: the node declares these);
 * reference planner: :class:`~safe_legged_c3bf.planning.params.ReferencePlannerParams`;
-* gait controller: :data:`CONTROLLER_DEFAULTS`, which the gait controller node imports from
-  here (its gait parameters come from its ``controller_config`` file, not from parameters).
+* gait controller: :class:`~safe_legged_c3bf.gait_controller_params.GaitControllerParams`
+  (its gait parameters come from its ``controller_config`` file, not from parameters).
 
 ``use_sim_time`` is left out on purpose: every node of the graph must run on sim time.
 """
@@ -22,15 +22,6 @@ Where the names come from:
 from __future__ import annotations
 
 from dataclasses import asdict
-
-#: The gait controller node's parameters, with defaults.
-CONTROLLER_DEFAULTS: dict[str, object] = {
-    "robot": "quadruped",
-    "command_timeout": 0.5,
-    "controller_config": "",
-    "diagnostics_period": 1.0,
-    "max_future_stamp": 0.1,
-}
 
 #: Scenario override section -> the node that receives it.
 OVERRIDE_NODES = {
@@ -69,7 +60,9 @@ def planner_parameter_defaults() -> dict[str, object]:
 
 def controller_parameter_defaults() -> dict[str, object]:
     """The gait controller node's parameters, with defaults."""
-    return dict(CONTROLLER_DEFAULTS)
+    from safe_legged_c3bf.gait_controller_params import GaitControllerParams
+
+    return GaitControllerParams.defaults()
 
 
 def override_parameter_defaults(section: str) -> dict[str, object]:

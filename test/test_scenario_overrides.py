@@ -28,12 +28,6 @@ def test_scenario_module_does_not_import_ros():
     assert out.strip().splitlines()[-1] == "[]"
 
 
-def test_gait_controller_declares_the_listed_parameters():
-    source = (REPO / "safe_legged_c3bf" / "nodes" / "gait_controller_node.py").read_text()
-    assert "for name, default in CONTROLLER_DEFAULTS.items():" in source
-    assert source.count("declare_parameter(") == 1
-
-
 @pytest.mark.parametrize(
     ("section", "values", "message"),
     [
