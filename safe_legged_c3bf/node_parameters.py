@@ -1,27 +1,36 @@
-"""The parameters each graph node declares, without importing ROS.
+"""The parameter class of each graph node, without importing ROS.
+
+Every node declares exactly the fields of one
+:class:`~safe_legged_c3bf.typed_params.TypedParams` class (through
+:class:`~safe_legged_c3bf.nodes.parameters.NodeParameters`), listed in
+:data:`NODE_PARAMETER_CLASSES`. Names, defaults, types, units and which parameters are fixed
+at start-up all come from those classes; nothing is listed twice.
 
 A scenario's ``filter:``, ``tracker:``, ``controller:`` and ``planner:`` sections are
 parameter overrides of the safety filter, obstacle tracker, gait controller and reference
-planner nodes (the bringup hands them over). rclpy ignores an override of a parameter a node
-never declared, so a misspelt key would silently do nothing: :mod:`safe_legged_c3bf.sim.scenario`
-checks the keys against the names listed here when the file is loaded.
-
-Where the names come from:
-
-* safety filter: the fields of :class:`~safe_legged_c3bf.filtering.params.FilterParams`
-  (the node declares exactly these);
-* obstacle tracker: :class:`~safe_legged_c3bf.tracking.params.ObstacleTrackerParams` (its
-  fields, then those of ``TrackerConfig`` and ``TrackConfig``: the node declares these);
-* reference planner: :class:`~safe_legged_c3bf.planning.params.ReferencePlannerParams`;
-* gait controller: :class:`~safe_legged_c3bf.gait_controller_params.GaitControllerParams`
-  (its gait parameters come from its ``controller_config`` file, not from parameters).
+planner nodes (:data:`OVERRIDE_NODES`). rclpy ignores an override of a parameter a node never
+declared, so a misspelt key would silently do nothing: :mod:`safe_legged_c3bf.sim.scenario`
+checks the keys and value types against these classes when the file is loaded.
 
 ``use_sim_time`` is left out on purpose: every node of the graph must run on sim time.
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict
+from importlib import import_module
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from safe_legged_c3bf.typed_params import TypedParams
+
+#: Node name -> (module, class) of its parameters (imported on use: the tracker's needs scipy).
+NODE_PARAMETER_CLASSES = {
+    "safety_filter": ("safe_legged_c3bf.filtering.params", "FilterParams"),
+    "obstacle_tracker": ("safe_legged_c3bf.tracking.params", "ObstacleTrackerParams"),
+    "reference_planner": ("safe_legged_c3bf.planning.params", "ReferencePlannerParams"),
+    "gait_controller": ("safe_legged_c3bf.gait_controller_params", "GaitControllerParams"),
+    "simulator": ("safe_legged_c3bf.sim.node_params", "SimulatorParams"),
+}
 
 #: Scenario override section -> the node that receives it.
 OVERRIDE_NODES = {
@@ -32,44 +41,22 @@ OVERRIDE_NODES = {
 }
 
 
-#: Sections whose node declares its floating-point parameters without dynamic typing: rclpy
-#: refuses an integer there (``gamma: 1`` instead of ``1.0``) and the node fails to start.
-STRICT_DOUBLE_SECTIONS = frozenset({"filter", "controller"})
-
-
-def filter_parameter_defaults() -> dict[str, object]:
-    """The safety filter node's parameters: the fields of FilterParams, with defaults."""
-    from safe_legged_c3bf.filtering.params import FilterParams
-
-    return asdict(FilterParams())
-
-
-def tracker_parameter_defaults() -> dict[str, object]:
-    """The obstacle tracker node's parameters: node extras, tracker and track configuration."""
-    from safe_legged_c3bf.tracking.params import ObstacleTrackerParams
-
-    return ObstacleTrackerParams.defaults()
-
-
-def planner_parameter_defaults() -> dict[str, object]:
-    """The reference planner node's parameters, with defaults."""
-    from safe_legged_c3bf.planning.params import ReferencePlannerParams
-
-    return ReferencePlannerParams.defaults()
-
-
-def controller_parameter_defaults() -> dict[str, object]:
-    """The gait controller node's parameters, with defaults."""
-    from safe_legged_c3bf.gait_controller_params import GaitControllerParams
-
-    return GaitControllerParams.defaults()
+def parameter_class(node: str) -> type[TypedParams]:
+    """The parameter class of the graph node named ``node`` ('safety_filter', ...)."""
+    module, name = NODE_PARAMETER_CLASSES[node]
+    return getattr(import_module(module), name)
 
 
 def override_parameter_defaults(section: str) -> dict[str, object]:
     """Parameters (name -> default) a scenario's ``section`` ('filter', ...) may override."""
-    return {
-        "filter": filter_parameter_defaults,
-        "tracker": tracker_parameter_defaults,
-        "controller": controller_parameter_defaults,
-        "planner": planner_parameter_defaults,
-    }[section]()
+    return parameter_class(OVERRIDE_NODES[section]).defaults()
+
+
+def override_refuses_integers(section: str) -> bool:
+    """True when the node of ``section`` refuses an integer for a float (``1`` for ``1.0``)."""
+    return not parameter_class(OVERRIDE_NODES[section]).int_for_float
+
+
+def override_fixed_parameters(section: str) -> tuple[str, ...]:
+    """The parameters of the node of ``section`` that are fixed at its start-up."""
+    return tuple(s.name for s in parameter_class(OVERRIDE_NODES[section]).specs() if s.fixed)

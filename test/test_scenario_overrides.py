@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from safe_legged_c3bf import node_parameters as np_
 from safe_legged_c3bf.sim.scenario import ScenarioError, parse_scenario
 
 REPO = Path(__file__).resolve().parents[1]
@@ -28,6 +29,16 @@ def test_scenario_module_does_not_import_ros():
     assert out.strip().splitlines()[-1] == "[]"
 
 
+def test_sections_take_their_names_and_types_from_the_parameter_classes():
+    for section, node in np_.OVERRIDE_NODES.items():
+        defaults = np_.parameter_class(node).defaults()
+        assert np_.override_parameter_defaults(section).keys() == defaults.keys()
+    # The filter and gait controller refuse an integer for a float, as they always did.
+    refuse = {s for s in np_.OVERRIDE_NODES if np_.override_refuses_integers(s)}
+    assert refuse == {"filter", "controller"}
+    assert np_.override_fixed_parameters("planner") == ("diagnostics_period", "scenario")
+
+
 @pytest.mark.parametrize(
     ("section", "values", "message"),
     [
@@ -42,8 +53,10 @@ def test_scenario_module_does_not_import_ros():
         # Values the node itself would refuse at start-up, for the filter (FilterParams).
         ("filter", {"gamma": -1.0}, "filter.gamma: must be a finite number > 0"),
         ("filter", {"min_height": 0.4, "max_height": 0.3}, "filter.min_height/max_height"),
-        # The planner's scenario parameter is the bringup's.
+        # The planner's scenario parameter is the bringup's; the node applies the section
+        # after it started, so its parameters fixed at start-up cannot be in it.
         ("planner", {"scenario": "other"}, "planner.scenario: unknown key 'scenario'"),
+        ("planner", {"diagnostics_period": 2.0}, "planner.diagnostics_period: unknown key"),
     ],
 )
 def test_override_values_are_typed_like_the_nodes_parameters(section, values, message):
