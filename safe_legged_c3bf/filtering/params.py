@@ -64,17 +64,19 @@ class FilterParams(TypedParams):
     max_accel: float = param(
         1.0, "m/s^2", "|a| limit on forward/lateral acceleration", POSITIVE
     )
-    max_yaw_accel: float = param(4.0, "rad/s^2", "|alpha| limit (yaw acceleration)", POSITIVE)
-    max_vertical_accel: float = param(1.0, "m/s^2", "|a_z| limit", POSITIVE)
+    max_yaw_accel: float = param(4.0, "rad/s^2", "yaw acceleration limit |alpha|", POSITIVE)
+    max_vertical_accel: float = param(1.0, "m/s^2", "vertical acceleration limit |a_z|", POSITIVE)
     brake_decel: float = param(
         1.0, "m/s^2", "deceleration used when braking on stale input (rad/s^2 for yaw)",
         POSITIVE,
     )
-    max_speed: float = param(0.8, "m/s", "|vx| limit (forward speed)", POSITIVE)
+    max_speed: float = param(0.8, "m/s", "forward speed limit |vx|", POSITIVE)
     max_reverse_speed: float = param(0.3, "m/s", "limit on backward speed", NON_NEGATIVE)
-    max_lateral_speed: float = param(0.3, "m/s", "|vy| limit (holonomic only)", POSITIVE)
-    max_yaw_rate: float = param(1.0, "rad/s", "|wz| limit", POSITIVE)
-    max_vertical_speed: float = param(0.2, "m/s", "|vz| limit", POSITIVE)
+    max_lateral_speed: float = param(
+        0.3, "m/s", "lateral speed limit |vy| (holonomic only)", POSITIVE
+    )
+    max_yaw_rate: float = param(1.0, "rad/s", "yaw rate limit |wz|", POSITIVE)
+    max_vertical_speed: float = param(0.2, "m/s", "vertical speed limit |vz|", POSITIVE)
     min_height: float = param(
         0.20, "m", "lowest body height the gait controller can hold: the filter never asks to "
         "duck below it (it brakes or steers instead); < max_height", POSITIVE,
