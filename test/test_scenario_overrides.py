@@ -66,7 +66,7 @@ def test_override_values_are_typed_like_the_nodes_parameters(section, values, me
 
 
 def test_integers_where_the_node_accepts_them():
-    # The tracker and planner declare their numbers with dynamic typing.
+    # The tracker and planner take an integer for a float (their classes' int_for_float).
     sc = parse_scenario(dict(BASE, tracker={"rate": 20, "confirm_hits": 2},
                              planner={"max_vx": 1}))
     assert sc.overrides["tracker"] == {"rate": 20, "confirm_hits": 2}
