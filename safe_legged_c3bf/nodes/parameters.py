@@ -92,7 +92,7 @@ class NodeParameters(Generic[P]):
             ValueError: naming the parameter, for an invalid start-up value.
 
         """
-        self._node, self._cls, self._apply = node, cls, apply
+        self._node, self._apply = node, apply
         self._specs = {s.name: s for s in cls.specs()}
         for spec in self._specs.values():
             node.declare_parameter(spec.name, to_ros(spec.default), descriptor(spec))
@@ -115,11 +115,6 @@ class NodeParameters(Generic[P]):
             if not result.successful:
                 raise ValueError(f"{param.name}: cannot be set at start-up: {result.reason}")
         return adjusted
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        """The declared parameter names."""
-        return tuple(self._specs)
 
     def _on_set(self, params: list[Parameter]) -> SetParametersResult:
         """The one callback of live changes: validate the whole new set, then apply it."""
