@@ -1,91 +1,35 @@
-"""The parameters each graph node declares, without importing ROS.
+"""The parameter class of each graph node, without importing ROS.
+
+Every node declares exactly the fields of one
+:class:`~safe_legged_c3bf.typed_params.TypedParams` class (through
+:class:`~safe_legged_c3bf.nodes.parameters.NodeParameters`), listed in
+:data:`NODE_PARAMETER_CLASSES`. Names, defaults, types, units and which parameters are fixed
+at start-up all come from those classes; nothing is listed twice.
 
 A scenario's ``filter:``, ``tracker:``, ``controller:`` and ``planner:`` sections are
 parameter overrides of the safety filter, obstacle tracker, gait controller and reference
-planner nodes (the bringup hands them over). rclpy ignores an override of a parameter a node
-never declared, so a misspelt key would silently do nothing: :mod:`safe_legged_c3bf.sim.scenario`
-checks the keys against the names listed here when the file is loaded.
-
-Where the names come from:
-
-* safety filter: the fields of :class:`~safe_legged_c3bf.filtering.params.FilterParams`
-  (the node declares exactly these);
-* obstacle tracker: the fields of ``TrackerConfig`` (except the nested ``track``) and of
-  ``TrackConfig``, plus :data:`TRACKER_NODE_DEFAULTS` (the node's own parameters, which the
-  tracker node imports from here);
-* reference planner: :data:`PLANNER_DEFAULTS` and :data:`PLANNER_NODE_DEFAULTS`, which the
-  planner node imports from here;
-* gait controller: :data:`CONTROLLER_DEFAULTS`, which the gait controller node imports from
-  here (its gait parameters come from its ``controller_config`` file, not from parameters).
+planner nodes (:data:`OVERRIDE_NODES`). rclpy ignores an override of a parameter a node never
+declared, so a misspelt key would silently do nothing: :mod:`safe_legged_c3bf.sim.scenario`
+checks the keys and value types against these classes when the file is loaded.
 
 ``use_sim_time`` is left out on purpose: every node of the graph must run on sim time.
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import asdict
+from importlib import import_module
+from typing import TYPE_CHECKING
 
-#: Body height (m, odom z of base_link) the reference planner holds, per robot kind.
-NOMINAL_HEIGHT = {"quadruped": 0.28, "biped": 0.82}
+if TYPE_CHECKING:
+    from safe_legged_c3bf.typed_params import TypedParams
 
-#: Reference planner parameters mapped onto PlannerConfig fields (same names), with defaults.
-PLANNER_DEFAULTS: dict[str, object] = {
-    "mode": "goal",
-    "max_vx": 0.5,
-    "max_vx_backward": 0.25,
-    "max_vy": 0.3,
-    "max_vz": 0.2,
-    "max_yaw_rate": 1.0,
-    "max_linear_accel": 0.0,
-    "max_yaw_accel": 0.0,
-    "k_speed": 0.8,
-    "k_heading": 2.0,
-    "k_yaw": 1.5,
-    "k_z": 2.0,
-    "z_nominal": NOMINAL_HEIGHT["quadruped"],
-    "hold_height": True,
-    "goal_tolerance": 0.05,
-    "resume_distance": 0.15,
-    "yaw_tolerance": 0.05,
-    "yaw_resume_tolerance": 0.15,
-    "heading_slowdown_angle": math.pi / 3.0,
-}
-#: The reference planner's remaining parameters, with defaults.
-PLANNER_NODE_DEFAULTS: dict[str, object] = {
-    "rate": 50.0,
-    "odom_timeout": 0.5,
-    "diagnostics_period": 1.0,
-    "scenario": "",
-    "goal_x": math.nan,
-    "goal_y": math.nan,
-    "goal_yaw": math.nan,
-    "constant_vx": 0.0,
-    "constant_vy": 0.0,
-    "constant_vz": 0.0,
-    "constant_yaw_rate": 0.0,
-}
-
-#: The obstacle tracker node's parameters that are not tracker configuration, with defaults
-#: (the node imports them from here as ``obstacle_tracker_node.NODE_DEFAULTS``).
-TRACKER_NODE_DEFAULTS: dict[str, object] = {
-    "rate": 30.0,
-    "marker_rate": 10.0,
-    "marker_inflation": 0.15,
-    "detections_timeout": 0.5,
-    "diagnostics_period": 1.0,
-    "publish_unestimated_velocity": False,
-    "max_future_stamp": 0.1,
-    "max_message_bytes": 262144,
-}
-
-#: The gait controller node's parameters, with defaults.
-CONTROLLER_DEFAULTS: dict[str, object] = {
-    "robot": "quadruped",
-    "command_timeout": 0.5,
-    "controller_config": "",
-    "diagnostics_period": 1.0,
-    "max_future_stamp": 0.1,
+#: Node name -> (module, class) of its parameters (imported on use: the tracker's needs scipy).
+NODE_PARAMETER_CLASSES = {
+    "safety_filter": ("safe_legged_c3bf.filtering.params", "FilterParams"),
+    "obstacle_tracker": ("safe_legged_c3bf.tracking.params", "ObstacleTrackerParams"),
+    "reference_planner": ("safe_legged_c3bf.planning.params", "ReferencePlannerParams"),
+    "gait_controller": ("safe_legged_c3bf.gait_controller_params", "GaitControllerParams"),
+    "simulator": ("safe_legged_c3bf.sim.node_params", "SimulatorParams"),
 }
 
 #: Scenario override section -> the node that receives it.
@@ -97,42 +41,22 @@ OVERRIDE_NODES = {
 }
 
 
-#: Sections whose node declares its floating-point parameters without dynamic typing: rclpy
-#: refuses an integer there (``gamma: 1`` instead of ``1.0``) and the node fails to start.
-STRICT_DOUBLE_SECTIONS = frozenset({"filter", "controller"})
-
-
-def filter_parameter_defaults() -> dict[str, object]:
-    """The safety filter node's parameters: the fields of FilterParams, with defaults."""
-    from safe_legged_c3bf.filtering.params import FilterParams
-
-    return asdict(FilterParams())
-
-
-def tracker_parameter_defaults() -> dict[str, object]:
-    """The obstacle tracker node's parameters: node extras, tracker and track configuration."""
-    from safe_legged_c3bf.tracking import TrackConfig, TrackerConfig
-
-    config = asdict(TrackerConfig())
-    config.pop("track")
-    return {**TRACKER_NODE_DEFAULTS, **config, **asdict(TrackConfig())}
-
-
-def planner_parameter_defaults() -> dict[str, object]:
-    """The reference planner node's parameters, with defaults."""
-    return {**PLANNER_NODE_DEFAULTS, **PLANNER_DEFAULTS}
-
-
-def controller_parameter_defaults() -> dict[str, object]:
-    """The gait controller node's parameters, with defaults."""
-    return dict(CONTROLLER_DEFAULTS)
+def parameter_class(node: str) -> type[TypedParams]:
+    """The parameter class of the graph node named ``node`` ('safety_filter', ...)."""
+    module, name = NODE_PARAMETER_CLASSES[node]
+    return getattr(import_module(module), name)
 
 
 def override_parameter_defaults(section: str) -> dict[str, object]:
     """Parameters (name -> default) a scenario's ``section`` ('filter', ...) may override."""
-    return {
-        "filter": filter_parameter_defaults,
-        "tracker": tracker_parameter_defaults,
-        "controller": controller_parameter_defaults,
-        "planner": planner_parameter_defaults,
-    }[section]()
+    return parameter_class(OVERRIDE_NODES[section]).defaults()
+
+
+def override_refuses_integers(section: str) -> bool:
+    """True when the node of ``section`` refuses an integer for a float (``1`` for ``1.0``)."""
+    return not parameter_class(OVERRIDE_NODES[section]).int_for_float
+
+
+def override_fixed_parameters(section: str) -> tuple[str, ...]:
+    """The parameters of the node of ``section`` that are fixed at its start-up."""
+    return tuple(s.name for s in parameter_class(OVERRIDE_NODES[section]).specs() if s.fixed)

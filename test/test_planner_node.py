@@ -19,10 +19,8 @@ from rosgraph_msgs.msg import Clock
 from safe_legged_c3bf import topics
 from safe_legged_c3bf.config import config_path
 from safe_legged_c3bf.nodes import ros_common
-from safe_legged_c3bf.nodes.reference_planner_node import (
-    ReferencePlannerNode,
-    parameter_defaults,
-)
+from safe_legged_c3bf.nodes.reference_planner_node import ReferencePlannerNode
+from safe_legged_c3bf.planning.params import ReferencePlannerParams
 from safe_legged_c3bf.planning.reference_planner import PlannerMode
 
 STEP_NS = 20_000_000  # 50 Hz: one /cmd_vel per clock step
@@ -248,7 +246,7 @@ def test_startup_rejects_an_invalid_configuration(ros_executor):
 def test_defaults_equal_the_config_file(ros_executor):
     data = yaml.safe_load(config_path("reference_planner.yaml").read_text())
     params = data["reference_planner"]["ros__parameters"]
-    defaults = parameter_defaults()
+    defaults = ReferencePlannerParams.defaults()
     assert set(params) == set(defaults)
     node = ReferencePlannerNode(context=ros_executor.context_for_nodes)
     ros_executor.add_node(node)

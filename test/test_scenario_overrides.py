@@ -29,25 +29,14 @@ def test_scenario_module_does_not_import_ros():
     assert out.strip().splitlines()[-1] == "[]"
 
 
-def test_lists_match_the_nodes():
-    pytest.importorskip("rclpy")
-    from safe_legged_c3bf.nodes import obstacle_tracker_node, reference_planner_node
-
-    assert np_.TRACKER_NODE_DEFAULTS == obstacle_tracker_node.NODE_DEFAULTS
-    assert _same(np_.tracker_parameter_defaults(), obstacle_tracker_node.parameter_defaults())
-    assert _same(np_.planner_parameter_defaults(), reference_planner_node.parameter_defaults())
-
-
-def _same(a, b):
-    """Equal dicts, NaN equal to NaN."""
-    nan = {k for k in a if a[k] != a[k] and b.get(k) != b.get(k)}
-    return a.keys() == b.keys() and all(a[k] == b[k] for k in a.keys() - nan)
-
-
-def test_gait_controller_declares_the_listed_parameters():
-    source = (REPO / "safe_legged_c3bf" / "nodes" / "gait_controller_node.py").read_text()
-    assert "for name, default in CONTROLLER_DEFAULTS.items():" in source
-    assert source.count("declare_parameter(") == 1
+def test_sections_take_their_names_and_types_from_the_parameter_classes():
+    for section, node in np_.OVERRIDE_NODES.items():
+        defaults = np_.parameter_class(node).defaults()
+        assert np_.override_parameter_defaults(section).keys() == defaults.keys()
+    # The filter and gait controller refuse an integer for a float, as they always did.
+    refuse = {s for s in np_.OVERRIDE_NODES if np_.override_refuses_integers(s)}
+    assert refuse == {"filter", "controller"}
+    assert np_.override_fixed_parameters("planner") == ("diagnostics_period", "scenario")
 
 
 @pytest.mark.parametrize(
@@ -64,8 +53,10 @@ def test_gait_controller_declares_the_listed_parameters():
         # Values the node itself would refuse at start-up, for the filter (FilterParams).
         ("filter", {"gamma": -1.0}, "filter.gamma: must be a finite number > 0"),
         ("filter", {"min_height": 0.4, "max_height": 0.3}, "filter.min_height/max_height"),
-        # The planner's scenario parameter is the bringup's.
+        # The planner's scenario parameter is the bringup's; the node applies the section
+        # after it started, so its parameters fixed at start-up cannot be in it.
         ("planner", {"scenario": "other"}, "planner.scenario: unknown key 'scenario'"),
+        ("planner", {"diagnostics_period": 2.0}, "planner.diagnostics_period: unknown key"),
     ],
 )
 def test_override_values_are_typed_like_the_nodes_parameters(section, values, message):
@@ -75,7 +66,7 @@ def test_override_values_are_typed_like_the_nodes_parameters(section, values, me
 
 
 def test_integers_where_the_node_accepts_them():
-    # The tracker and planner declare their numbers with dynamic typing.
+    # The tracker and planner take an integer for a float (their classes' int_for_float).
     sc = parse_scenario(dict(BASE, tracker={"rate": 20, "confirm_hits": 2},
                              planner={"max_vx": 1}))
     assert sc.overrides["tracker"] == {"rate": 20, "confirm_hits": 2}

@@ -20,8 +20,8 @@ from safe_legged_c3bf import topics
 from safe_legged_c3bf.base_state import quaternion_to_matrix
 from safe_legged_c3bf.config import config_path
 from safe_legged_c3bf.nodes.ros_common import from_time_msg, qos, to_time_msg
-from safe_legged_c3bf.nodes.simulator.parameters import PARAMETERS
 from safe_legged_c3bf.nodes.simulator_node import SimulatorNode
+from safe_legged_c3bf.sim.node_params import SimulatorParams
 from safe_legged_c3bf.sim.scenario import ScenarioError
 from safe_legged_c3bf_msgs.msg import GroundTruthSafety, MotorCommand, Obstacle, ObstacleArray
 
@@ -83,7 +83,7 @@ def make_node(executor, **params) -> SimulatorNode:
 def test_parameter_defaults_match_config_file():
     with open(config_path("simulator.yaml"), encoding="utf-8") as f:
         values = yaml.safe_load(f)["simulator"]["ros__parameters"]
-    assert values == {name: default for name, (default, _) in PARAMETERS.items()}
+    assert values == SimulatorParams.defaults()
 
 
 def test_node_publishes_state_and_consumes_commands(ros_executor, tmp_path):

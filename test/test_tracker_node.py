@@ -18,13 +18,10 @@ from visualization_msgs.msg import Marker, MarkerArray
 from safe_legged_c3bf import topics
 from safe_legged_c3bf.config import config_path
 from safe_legged_c3bf.nodes import ros_common
-from safe_legged_c3bf.nodes.obstacle_tracker_node import (
-    ObstacleTrackerNode,
-    ellipse_rotation,
-    parameter_defaults,
-)
+from safe_legged_c3bf.nodes.obstacle_tracker_node import ObstacleTrackerNode, ellipse_rotation
 from safe_legged_c3bf.rotations import matrix_to_quaternion
 from safe_legged_c3bf.tracking import ObstaclePlane
+from safe_legged_c3bf.tracking.params import ObstacleTrackerParams
 from safe_legged_c3bf_msgs.msg import Obstacle, ObstacleArray
 
 STEP_NS = 50_000_000  # 20 Hz detections and tracker rate: one publish per clock step
@@ -255,7 +252,7 @@ def test_startup_rejects_an_invalid_configuration(ros_executor):
 def test_defaults_equal_the_config_file(ros_executor):
     data = yaml.safe_load(config_path("obstacle_tracker.yaml").read_text())
     params = data["obstacle_tracker"]["ros__parameters"]
-    assert params == parameter_defaults()
+    assert params == ObstacleTrackerParams.defaults()
     node = ObstacleTrackerNode(context=ros_executor.context_for_nodes)
     ros_executor.add_node(node)
     for name, value in params.items():

@@ -26,7 +26,6 @@ from collections import Counter
 import numpy as np
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
-from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState
 
@@ -34,9 +33,10 @@ from safe_legged_c3bf import topics
 from safe_legged_c3bf.base_state import BaseState
 from safe_legged_c3bf.controllers import make_gait_controller
 from safe_legged_c3bf.gait_controller import VelocityCommand
+from safe_legged_c3bf.gait_controller_params import GaitControllerParams
 from safe_legged_c3bf.inputs import StampGate, StampVerdict
-from safe_legged_c3bf.node_parameters import CONTROLLER_DEFAULTS
 from safe_legged_c3bf.nodes import ros_common
+from safe_legged_c3bf.nodes.parameters import NodeParameters
 from safe_legged_c3bf_msgs.msg import MotorCommand
 
 
@@ -47,18 +47,14 @@ class GaitControllerNode(Node):
         """Create the node; ``kwargs`` go to rclpy's Node (context, parameter_overrides...)."""
         super().__init__("gait_controller", **kwargs)
         ros_common.use_sim_time(self)
-        for name, default in CONTROLLER_DEFAULTS.items():  # robot, command_timeout, ...
-            self.declare_parameter(name, default)
-        self._timeout = float(self.get_parameter("command_timeout").value)
-        if not self._timeout > 0:
-            raise ValueError("command_timeout must be > 0 s")
-        self._gate = StampGate(float(self.get_parameter("max_future_stamp").value), self._timeout)
+        # A bad start-up value raises here; robot and controller_config are fixed.
+        self.params = NodeParameters(self, GaitControllerParams, apply=self._apply_params)
+        p = self.params.value
+        self._timeout = float(p.command_timeout)
+        self._gate = StampGate(float(p.max_future_stamp), self._timeout)
         self.rejected: Counter[str] = Counter()  # "<topic>_<reason>" -> count
-        robot = str(self.get_parameter("robot").value)
-        self.controller = make_gait_controller(
-            robot, str(self.get_parameter("controller_config").value) or None
-        )
-        self.add_on_set_parameters_callback(self._on_set_parameters)
+        robot = p.robot
+        self.controller = make_gait_controller(robot, p.controller_config or None)
 
         self._names_index: np.ndarray | None = None
         self._names_key: tuple[str, ...] = ()
@@ -83,28 +79,18 @@ class GaitControllerNode(Node):
         ros_common.subscription(self, topics.IMU, self._on_imu)
         ros_common.subscription(self, topics.CMD_VEL_SAFE, self._on_cmd)
         self._single_command_source = ros_common.SinglePublisher(self, topics.CMD_VEL_SAFE)
-        self.create_timer(
-            float(self.get_parameter("diagnostics_period").value), self._publish_diagnostics
-        )
+        self.create_timer(float(p.diagnostics_period), self._publish_diagnostics)
         self.get_logger().info(
             f"gait controller for '{robot}' ({type(self.controller).__name__}), "
             f"period {self.controller.control_period * 1e3:.1f} ms"
         )
 
-    def _on_set_parameters(self, params) -> SetParametersResult:
-        for p in params:
-            if p.name == "command_timeout":
-                if not (isinstance(p.value, float | int) and p.value > 0):
-                    return SetParametersResult(
-                        successful=False, reason="command_timeout must be > 0 s"
-                    )
-                self._timeout = float(p.value)
-                self._gate = StampGate(self._gate.max_future, self._timeout)
-            elif p.name in ("robot", "controller_config"):
-                return SetParametersResult(
-                    successful=False, reason=f"{p.name} is fixed at start-up"
-                )
-        return SetParametersResult(successful=True)
+    def _apply_params(
+        self, old: GaitControllerParams, new: GaitControllerParams, names: frozenset[str]
+    ) -> None:
+        """Use validated new stamp limits: the command timeout and the stamp gate."""
+        self._timeout = float(new.command_timeout)
+        self._gate = StampGate(float(new.max_future_stamp), self._timeout)
 
     # -- inputs -----------------------------------------------------------------------------
     def _state_time(self) -> float | None:

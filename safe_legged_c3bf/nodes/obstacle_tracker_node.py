@@ -34,12 +34,10 @@ keep the nearest. Two detectors on one topic are merged (see ``TrackerConfig.max
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, fields
 
 import numpy as np
 from geometry_msgs.msg import Point, Quaternion
 from nav_msgs.msg import Odometry
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
@@ -48,91 +46,23 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from safe_legged_c3bf import topics
 from safe_legged_c3bf.inputs import StampGate, StampVerdict
-from safe_legged_c3bf.node_parameters import TRACKER_NODE_DEFAULTS
 from safe_legged_c3bf.nodes import ros_common
 from safe_legged_c3bf.nodes.messages import obstacle_to_msg
+from safe_legged_c3bf.nodes.parameters import NodeParameters
 from safe_legged_c3bf.rotations import matrix_to_quaternion
 from safe_legged_c3bf.tracking import (
     Detection,
     MultiObstacleTracker,
     ObstaclePlane,
-    TrackConfig,
     TrackedObstacle,
     TrackerConfig,
 )
+from safe_legged_c3bf.tracking.params import ObstacleTrackerParams
 from safe_legged_c3bf_msgs.msg import Obstacle, ObstacleArray
-
-#: Tracker configuration parameters (flat names: TrackerConfig fields and TrackConfig fields).
-TRACKER_FIELDS = tuple(f.name for f in fields(TrackerConfig) if f.name != "track")
-TRACK_FIELDS = tuple(f.name for f in fields(TrackConfig))
-
-#: Node parameters that are not part of the tracker configuration, with their defaults.
-NODE_DEFAULTS = TRACKER_NODE_DEFAULTS
-
-_DESCRIPTIONS = {
-    "rate": "publish rate of /obstacles (Hz, sim time), > 0",
-    "marker_rate": "publish rate of /obstacles/markers (Hz, sim time); 0 disables markers",
-    "marker_inflation": "m added to the largest semi-axis for the inflated-circle marker, >= 0",
-    "detections_timeout": "s (sim time) without detections before /obstacles stops, > 0",
-    "diagnostics_period": "period of /diagnostics (s, sim time), > 0; fixed at start-up",
-    "publish_unestimated_velocity": "publish the raw velocity of tracks whose velocity is "
-    "not yet estimated (velocity_source UNKNOWN) instead of zero",
-    "frame_id": "frame of detections and tracks (odom)",
-    "max_future_stamp": "s a message stamp may be ahead of the node's clock, >= 0; later "
-    "stamps are rejected (a publisher not on sim time)",
-    "max_message_bytes": "detection messages larger than this (serialized bytes) are "
-    "rejected before decoding, integer >= 1",
-}
 
 #: Display length (m) of an obstacle with infinite extent.
 INFINITE_EXTENT_DISPLAY = 2.0
 MARKER_LIFETIME = 1.0  # s
-
-
-def tracker_defaults() -> dict[str, object]:
-    """Default values of every tracker parameter, keyed by parameter name."""
-    top = asdict(TrackerConfig())
-    track = top.pop("track")
-    return {**top, **track}
-
-
-def parameter_defaults() -> dict[str, object]:
-    """Default value of every parameter of the node (equal to config/obstacle_tracker.yaml)."""
-    return {**NODE_DEFAULTS, **tracker_defaults()}
-
-
-def _is_number(value: object) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool)
-
-
-def make_tracker_config(values: dict[str, object]) -> TrackerConfig:
-    """TrackerConfig from flat parameter values; raises ValueError naming a bad one."""
-    for name in (*TRACKER_FIELDS, *TRACK_FIELDS):
-        value = values[name]
-        if name == "frame_id":
-            if not isinstance(value, str) or not value:
-                raise ValueError(f"frame_id must be a non-empty string, got {value!r}")
-        elif not _is_number(value):
-            raise ValueError(f"{name} must be a number, got {value!r}")
-    try:
-        track = TrackConfig(**{name: values[name] for name in TRACK_FIELDS})
-        return TrackerConfig(**{name: values[name] for name in TRACKER_FIELDS}, track=track)
-    except TypeError as err:
-        raise ValueError(str(err)) from None
-
-
-def check_node_parameter(name: str, value: object) -> str:
-    """Reason why ``value`` is invalid for node parameter ``name`` ('' if it is fine)."""
-    if name == "publish_unestimated_velocity":
-        return "" if isinstance(value, bool) else f"{name} must be a bool, got {value!r}"
-    if name == "max_message_bytes":
-        ok = isinstance(value, int) and not isinstance(value, bool) and value >= 1
-        return "" if ok else f"{name} must be an integer >= 1, got {value!r}"
-    if not _is_number(value) or not math.isfinite(float(value)):
-        return f"{name} must be a finite number, got {value!r}"
-    if name in ("marker_rate", "marker_inflation", "max_future_stamp"):
-        return "" if value >= 0 else f"{name} must be >= 0, got {value!r}"
-    return "" if value > 0 else f"{name} must be > 0, got {value!r}"
 
 
 def detections_from_msg(msg: ObstacleArray) -> list[Detection]:
@@ -245,22 +175,10 @@ class ObstacleTrackerNode(Node):
         """Create the node; ``kwargs`` go to rclpy's Node (context, parameter_overrides...)."""
         super().__init__("obstacle_tracker", **kwargs)
         ros_common.use_sim_time(self)
-        for name, default in parameter_defaults().items():
-            description = _DESCRIPTIONS.get(
-                name, f"{name}: see safe_legged_c3bf/tracking (TrackerConfig/TrackConfig, SI)"
-            )
-            dynamic = _is_number(default)  # accept 15 for 15.0 (and 3.0 -> clear error)
-            descriptor = ParameterDescriptor(description=description, dynamic_typing=dynamic)
-            self.declare_parameter(name, default, descriptor)
-        values = {name: self.get_parameter(name).value for name in parameter_defaults()}
-        for name in NODE_DEFAULTS:
-            reason = check_node_parameter(name, values[name])
-            if reason:
-                raise ValueError(reason)
-        self._node_params = {name: values[name] for name in NODE_DEFAULTS}
-        self._tracker_values = {name: values[name] for name in (*TRACKER_FIELDS, *TRACK_FIELDS)}
-        self.tracker = MultiObstacleTracker(make_tracker_config(self._tracker_values))
-        self.add_on_set_parameters_callback(self._on_set_parameters)
+        # A bad start-up value raises here (an integer is taken for a float).
+        self.params = NodeParameters(self, ObstacleTrackerParams, apply=self._apply_params)
+        p = self.params.value
+        self.tracker = MultiObstacleTracker(p.tracker)
 
         self._rejections_before_restart: dict[str, int] = {}
         self._reported_rejections = 0
@@ -281,45 +199,23 @@ class ObstacleTrackerNode(Node):
         ros_common.subscription(self, topics.OBSTACLE_DETECTIONS, self._on_detections, raw=True)
         self.rejected_messages: dict[str, int] = {}  # whole messages, by reason
         ros_common.subscription(self, topics.ODOM, self._on_odom)
-        self._timer = self.create_timer(1.0 / float(self._node_params["rate"]), self._on_timer)
-        self.create_timer(float(self._node_params["diagnostics_period"]), self._publish_diagnostics)
+        self._timer = self.create_timer(1.0 / float(p.rate), self._on_timer)
+        self.create_timer(float(p.diagnostics_period), self._publish_diagnostics)
 
     # -- parameters ---------------------------------------------------------------------------
-    def _on_set_parameters(self, params) -> SetParametersResult:
-        node_changes: dict[str, object] = {}
-        tracker_changes: dict[str, object] = {}
-        for p in params:
-            if p.name in NODE_DEFAULTS:
-                reason = check_node_parameter(p.name, p.value)
-                if reason:
-                    return SetParametersResult(successful=False, reason=reason)
-                if p.name == "diagnostics_period" and p.value != self._node_params[p.name]:
-                    return SetParametersResult(
-                        successful=False, reason="diagnostics_period is fixed at start-up"
-                    )
-                node_changes[p.name] = p.value
-            elif p.name in self._tracker_values:
-                tracker_changes[p.name] = p.value
-        if tracker_changes:
-            values = {**self._tracker_values, **tracker_changes}
-            try:
-                config = make_tracker_config(values)
-            except ValueError as err:
-                return SetParametersResult(successful=False, reason=str(err))
-            if values != self._tracker_values:
-                self._restart_tracker(config)
-                self._tracker_values = values
-        rate_changed = "rate" in node_changes and node_changes["rate"] != self._node_params["rate"]
-        self._node_params.update(node_changes)
-        if rate_changed:
+    def _apply_params(
+        self, old: ObstacleTrackerParams, new: ObstacleTrackerParams, names: frozenset[str]
+    ) -> None:
+        """Use validated new parameters: a new tracker configuration restarts tracking."""
+        if new.tracker != old.tracker:
+            self._restart_tracker(new.tracker)
+        if new.rate != old.rate:
             self._timer.cancel()
             self.destroy_timer(self._timer)
-            self._timer = self.create_timer(1.0 / float(self._node_params["rate"]), self._on_timer)
-        if node_changes or tracker_changes:
-            self.get_logger().info(f"parameters updated: {node_changes | tracker_changes}")
-        return SetParametersResult(successful=True)
+            self._timer = self.create_timer(1.0 / float(new.rate), self._on_timer)
 
     def _restart_tracker(self, config: TrackerConfig) -> None:
+        """Start tracking afresh with ``config``, keeping the rejection counts."""
         self._rejections_before_restart = self.rejection_counts
         self.tracker = MultiObstacleTracker(config)
         self.get_logger().warn("tracker configuration changed: tracking restarted")
@@ -337,7 +233,7 @@ class ObstacleTrackerNode(Node):
         return ros_common.now_seconds(self)
 
     def _gate(self, max_age: float) -> StampGate:
-        return StampGate(float(self._node_params["max_future_stamp"]), max_age)
+        return StampGate(float(self.params.value.max_future_stamp), max_age)
 
     def _reject_message(self, topic: str, reason: str) -> None:
         key = f"{topic}_{reason}"
@@ -352,7 +248,7 @@ class ObstacleTrackerNode(Node):
             self.get_logger().warn("dropped an /odom with NaN/Inf", throttle_duration_sec=1.0)
             return
         stamp = ros_common.from_time_msg(msg.header.stamp)
-        verdict = self._gate(float(self._node_params["detections_timeout"])).verdict(
+        verdict = self._gate(float(self.params.value.detections_timeout)).verdict(
             stamp, self._now()
         )
         if verdict is not StampVerdict.OK:
@@ -363,7 +259,7 @@ class ObstacleTrackerNode(Node):
         self.tracker.observe_robot(self._robot_position, math.hypot(v.x, v.y))
 
     def _on_detections(self, raw: bytes) -> None:
-        if len(raw) > int(self._node_params["max_message_bytes"]):
+        if len(raw) > int(self.params.value.max_message_bytes):
             self._reject_message("detections", "too_large")
             return
         msg = deserialize_message(raw, ObstacleArray)
@@ -371,7 +267,7 @@ class ObstacleTrackerNode(Node):
         stamp = ros_common.from_time_msg(msg.header.stamp)
         if stamp == 0.0:  # unstamped: take the receipt time
             stamp = now
-        verdict = self._gate(float(self._node_params["detections_timeout"])).verdict(stamp, now)
+        verdict = self._gate(float(self.params.value.detections_timeout)).verdict(stamp, now)
         if verdict is not StampVerdict.OK:
             self._reject_message("detections", verdict.value)
             return
@@ -395,7 +291,7 @@ class ObstacleTrackerNode(Node):
     def detections_stale(self, t: float) -> bool:
         """True when no detection message arrived within ``detections_timeout`` of ``t``."""
         last = self._last_detection_time
-        return last is None or t - last > float(self._node_params["detections_timeout"])
+        return last is None or t - last > float(self.params.value.detections_timeout)
 
     def _on_timer(self) -> None:
         t = self._now()
@@ -411,8 +307,8 @@ class ObstacleTrackerNode(Node):
         obstacles = self.tracker.tracks_at(t)
         self._last_count = len(obstacles)
         stamp = ros_common.to_time_msg(t)
-        frame_id = str(self._tracker_values["frame_id"])
-        raw_velocity = bool(self._node_params["publish_unestimated_velocity"])
+        frame_id = str(self.params.value.tracker.frame_id)
+        raw_velocity = bool(self.params.value.publish_unestimated_velocity)
         msg = ObstacleArray()
         msg.header.stamp = stamp
         msg.header.frame_id = frame_id
@@ -426,7 +322,7 @@ class ObstacleTrackerNode(Node):
         self._pub.publish(msg)
         self.published += 1
 
-        marker_rate = float(self._node_params["marker_rate"])
+        marker_rate = float(self.params.value.marker_rate)
         if marker_rate > 0.0 and (
             self._last_marker_time is None
             or t - self._last_marker_time >= 1.0 / marker_rate - 1e-6
@@ -435,7 +331,7 @@ class ObstacleTrackerNode(Node):
             self._last_marker_time = t
             self._marker_pub.publish(
                 obstacle_markers(
-                    obstacles, stamp, frame_id, float(self._node_params["marker_inflation"]),
+                    obstacles, stamp, frame_id, float(self.params.value.marker_inflation),
                     raw_velocity,
                 )
             )

@@ -28,19 +28,13 @@ import math
 
 from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.node import Node
-from rclpy.parameter import Parameter
 
 from safe_legged_c3bf import topics
-from safe_legged_c3bf.node_parameters import (
-    NOMINAL_HEIGHT,
-    PLANNER_DEFAULTS,
-    PLANNER_NODE_DEFAULTS,
-)
 from safe_legged_c3bf.nodes import ros_common
+from safe_legged_c3bf.nodes.parameters import NodeParameters, same_value
+from safe_legged_c3bf.planning.params import GOAL_PARAMS, NOMINAL_HEIGHT, ReferencePlannerParams
 from safe_legged_c3bf.planning.reference_planner import (
-    PlannerConfig,
     PlannerMode,
     PlannerStatus,
     ReferencePlanner,
@@ -48,100 +42,6 @@ from safe_legged_c3bf.planning.reference_planner import (
     VelocityCommand,
 )
 from safe_legged_c3bf.rotations import yaw_from_quaternion
-
-# The parameter names and defaults live in a ROS-free module: scenario files are checked
-# against them when they are loaded.
-NODE_DEFAULTS = PLANNER_NODE_DEFAULTS
-GOAL_PARAMS = ("goal_x", "goal_y", "goal_yaw")
-CONSTANT_PARAMS = ("constant_vx", "constant_vy", "constant_vz", "constant_yaw_rate")
-
-_DESCRIPTIONS = {
-    "mode": "goal | holonomic | constant_velocity",
-    "max_vx": "largest forward speed (m/s), > 0",
-    "max_vx_backward": "largest backward speed, holonomic mode (m/s), >= 0",
-    "max_vy": "largest lateral speed (m/s), > 0",
-    "max_vz": "largest vertical speed of the height hold (m/s), > 0",
-    "max_yaw_rate": "largest yaw rate (rad/s), > 0",
-    "max_linear_accel": "rate limit of vx, vy, vz (m/s^2); 0 = none",
-    "max_yaw_accel": "rate limit of the yaw rate (rad/s^2); 0 = none",
-    "k_speed": "speed gain towards the goal (1/s); < k_heading and < 2 max_yaw_rate in goal mode",
-    "k_heading": "heading gain towards the goal (1/s)",
-    "k_yaw": "final-yaw gain (1/s)",
-    "k_z": "height gain (1/s)",
-    "z_nominal": "body height held through linear.z (m, odom z of base_link)",
-    "hold_height": "false: linear.z is always 0",
-    "goal_tolerance": "goal reached within this distance (m)",
-    "resume_distance": "after arriving, move again beyond this distance (m), > goal_tolerance",
-    "yaw_tolerance": "goal yaw reached within this error (rad)",
-    "yaw_resume_tolerance": "after arriving, turn again beyond this error (rad)",
-    "heading_slowdown_angle": "forward speed goes to 0 at this heading error (rad), <= pi/2",
-    "rate": "publish rate of /cmd_vel (Hz, sim time), > 0",
-    "odom_timeout": "odometry older than this (s, sim time) -> zero command, > 0",
-    "diagnostics_period": "period of /diagnostics (s, sim time), > 0; fixed at start-up",
-    "scenario": "scenario name or path whose goal/planner section to use; empty = none; "
-    "fixed at start-up",
-    "goal_x": "goal x in odom (m); NaN = none",
-    "goal_y": "goal y in odom (m); NaN = none",
-    "goal_yaw": "final heading at the goal (rad); NaN = any",
-    "constant_vx": "constant_velocity mode: forward speed (m/s)",
-    "constant_vy": "constant_velocity mode: lateral speed (m/s)",
-    "constant_vz": "constant_velocity mode: vertical speed (m/s); 0 = hold z_nominal",
-    "constant_yaw_rate": "constant_velocity mode: yaw rate (rad/s)",
-}
-
-
-def parameter_defaults() -> dict[str, object]:
-    """Default value of every parameter (equal to config/reference_planner.yaml)."""
-    return {**NODE_DEFAULTS, **PLANNER_DEFAULTS}
-
-
-def _is_number(value: object) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool)
-
-
-def make_planner_config(values: dict[str, object]) -> PlannerConfig:
-    """PlannerConfig from parameter values; raises ValueError naming the bad parameter."""
-    for name, default in PLANNER_DEFAULTS.items():
-        value = values[name]
-        if _is_number(default) and not _is_number(value):
-            raise ValueError(f"{name} must be a number, got {value!r}")
-    for name in CONSTANT_PARAMS:
-        value = values[name]
-        if not _is_number(value) or not math.isfinite(float(value)):
-            raise ValueError(f"{name} must be a finite number, got {value!r}")
-    kwargs = {name: values[name] for name in PLANNER_DEFAULTS}
-    for name in ("max_linear_accel", "max_yaw_accel"):  # 0 = no limit
-        if kwargs[name] == 0:
-            kwargs[name] = None
-        elif _is_number(kwargs[name]) and kwargs[name] < 0:
-            raise ValueError(f"{name} must be >= 0 (0 = no limit), got {kwargs[name]!r}")
-    rate = values["rate"]
-    kwargs["control_period"] = 1.0 / float(rate)
-    kwargs["constant_velocity"] = (
-        values["constant_vx"], values["constant_vy"], values["constant_yaw_rate"]
-    )
-    try:
-        config = PlannerConfig(**kwargs)
-    except TypeError as err:
-        raise ValueError(str(err)) from None
-    if abs(float(values["constant_vz"])) > config.max_vz:
-        raise ValueError("constant_vz exceeds max_vz")
-    return config
-
-
-def check_node_parameter(name: str, value: object) -> str:
-    """Reason why ``value`` is invalid for node parameter ``name`` ('' if it is fine)."""
-    if name == "scenario":
-        return "" if isinstance(value, str) else f"scenario must be a string, got {value!r}"
-    if not _is_number(value):
-        return f"{name} must be a number, got {value!r}"
-    if name in GOAL_PARAMS:
-        return "" if not math.isinf(float(value)) else f"{name} must be finite or NaN"
-    if name in CONSTANT_PARAMS:
-        return "" if math.isfinite(float(value)) else f"{name} must be finite"
-    if not math.isfinite(float(value)) or not value > 0:
-        return f"{name} must be a finite number > 0, got {value!r}"
-    return ""
 
 
 def scenario_parameters(name_or_path: str, values: dict[str, object]) -> dict[str, object]:
@@ -205,36 +105,14 @@ class ReferencePlannerNode(Node):
         """Create the node; ``kwargs`` go to rclpy's Node (context, parameter_overrides...)."""
         super().__init__("reference_planner", **kwargs)
         ros_common.use_sim_time(self)
-        defaults = parameter_defaults()
-        for name, default in defaults.items():
-            descriptor = ParameterDescriptor(
-                description=_DESCRIPTIONS[name], dynamic_typing=_is_number(default)
-            )
-            self.declare_parameter(name, default, descriptor)
-        values = {name: self.get_parameter(name).value for name in defaults}
-        for name in NODE_DEFAULTS:
-            reason = check_node_parameter(name, values[name])
-            if reason:
-                raise ValueError(reason)
-        if values["scenario"]:
-            applied = scenario_parameters(str(values["scenario"]), values)
-            changed = [
-                Parameter(name, value=value) for name, value in applied.items()
-                if value != values[name] and not (
-                    _is_number(value) and math.isnan(value) and math.isnan(values[name])
-                )
-            ]
-            values = applied
-            if changed:
-                self.set_parameters(changed)  # no callback yet: validated below
-                self.get_logger().info(
-                    f"scenario {values['scenario']}: "
-                    + ", ".join(f"{p.name}={p.value}" for p in changed)
-                )
-        self._values = values
-        self.planner = ReferencePlanner(make_planner_config(values))  # bad values raise here
-        self._set_goal_from_parameters(values, log=True)
-        self.add_on_set_parameters_callback(self._on_set_parameters)
+        # A bad start-up value raises here (an integer is taken for a float); the scenario's
+        # changes are applied first and shown as the parameters' values.
+        self.params = NodeParameters(
+            self, ReferencePlannerParams, apply=self._apply_params, prepare=self._with_scenario
+        )
+        p = self.params.value
+        self.planner = ReferencePlanner(p.planner_config())
+        self._set_goal_from_parameters(p, log=True)
 
         self._odom: Odometry | None = None
         self._pose: RobotPose | None = None
@@ -251,13 +129,26 @@ class ReferencePlannerNode(Node):
         self._diag_pub = ros_common.publisher(self, topics.DIAGNOSTICS)
         ros_common.subscription(self, topics.ODOM, self._on_odom)
         ros_common.subscription(self, topics.GOAL_POSE, self._on_goal)
-        self._timer = self.create_timer(1.0 / float(values["rate"]), self._on_timer)
-        self.create_timer(float(values["diagnostics_period"]), self._publish_diagnostics)
+        self._timer = self.create_timer(1.0 / float(p.rate), self._on_timer)
+        self.create_timer(float(p.diagnostics_period), self._publish_diagnostics)
         self.get_logger().info(f"reference planner in {self.planner.config.mode.value} mode")
 
     # -- parameters ---------------------------------------------------------------------------
-    def _set_goal_from_parameters(self, values: dict[str, object], log: bool = False) -> None:
-        gx, gy, gyaw = (float(values[n]) for n in GOAL_PARAMS)
+    def _with_scenario(self, values: dict[str, object]) -> dict[str, object]:
+        """The start-up values with the ``scenario``'s applied (see the module docstring)."""
+        if not values["scenario"]:
+            return values
+        applied = scenario_parameters(str(values["scenario"]), values)
+        changed = [n for n, v in applied.items() if not same_value(v, values[n])]
+        if changed:
+            self.get_logger().info(
+                f"scenario {values['scenario']}: " + ", ".join(f"{n}={applied[n]}" for n in changed)
+            )
+        return applied
+
+    def _set_goal_from_parameters(self, p: ReferencePlannerParams, log: bool = False) -> None:
+        """Set the goal of ``goal_x``/``goal_y``/``goal_yaw`` if x and y are given."""
+        gx, gy, gyaw = (float(getattr(p, n)) for n in GOAL_PARAMS)
         if not (math.isfinite(gx) and math.isfinite(gy)):
             return
         accepted, reason = self.planner.set_goal(gx, gy, None if math.isnan(gyaw) else gyaw)
@@ -266,42 +157,22 @@ class ReferencePlannerNode(Node):
         elif not accepted:
             self.get_logger().warn(f"goal parameters ignored: {reason}")
 
-    def _on_set_parameters(self, params) -> SetParametersResult:
-        changes = {p.name: p.value for p in params if p.name in self._values}
-        if not changes:
-            return SetParametersResult(successful=True)
-        for name, value in changes.items():
-            if name == "scenario" and value != self._values["scenario"]:
-                return SetParametersResult(
-                    successful=False, reason="scenario is fixed at start-up"
-                )
-            if name == "diagnostics_period" and value != self._values[name]:
-                return SetParametersResult(
-                    successful=False, reason="diagnostics_period is fixed at start-up"
-                )
-            if name in NODE_DEFAULTS:
-                reason = check_node_parameter(name, value)
-                if reason:
-                    return SetParametersResult(successful=False, reason=reason)
-        values = {**self._values, **changes}
-        try:
-            config = make_planner_config(values)
-        except ValueError as err:
-            return SetParametersResult(successful=False, reason=str(err))
+    def _apply_params(
+        self, old: ReferencePlannerParams, new: ReferencePlannerParams, names: frozenset[str]
+    ) -> None:
+        """Use validated new parameters: a new planner (keeping the goal), goal, timer rate."""
+        config = new.planner_config()
         if config != self.planner.config:
             goal = self.planner.goal
             self.planner = ReferencePlanner(config)
             if goal is not None:
                 self.planner.set_goal(goal.x, goal.y, goal.yaw)
-        if any(name in GOAL_PARAMS for name in changes):
-            self._set_goal_from_parameters(values, log=True)
-        if values["rate"] != self._values["rate"]:
+        if names & set(GOAL_PARAMS):
+            self._set_goal_from_parameters(new, log=True)
+        if new.rate != old.rate:
             self._timer.cancel()
             self.destroy_timer(self._timer)
-            self._timer = self.create_timer(1.0 / float(values["rate"]), self._on_timer)
-        self._values = values
-        self.get_logger().info(f"parameters updated: {changes}")
-        return SetParametersResult(successful=True)
+            self._timer = self.create_timer(1.0 / float(new.rate), self._on_timer)
 
     # -- inputs -----------------------------------------------------------------------------
     def _now(self) -> float:
@@ -340,7 +211,8 @@ class ReferencePlannerNode(Node):
     # -- cycle ------------------------------------------------------------------------------
     def odometry_stale(self, t: float) -> bool:
         """True without odometry or when it is older than ``odom_timeout`` at time ``t``."""
-        return self._odom_time is None or t - self._odom_time > float(self._values["odom_timeout"])
+        timeout = float(self.params.value.odom_timeout)
+        return self._odom_time is None or t - self._odom_time > timeout
 
     def _on_timer(self) -> None:
         t = self._now()
@@ -352,7 +224,7 @@ class ReferencePlannerNode(Node):
             cmd = VelocityCommand()
         else:
             cmd = self.planner.compute(self._pose, t)
-            vz = float(self._values["constant_vz"])
+            vz = float(self.params.value.constant_vz)
             if self.planner.config.mode is PlannerMode.CONSTANT_VELOCITY and vz != 0.0:
                 cmd = VelocityCommand(cmd.vx, cmd.vy, vz, cmd.yaw_rate)
             self._state = self.planner.status.value

@@ -20,12 +20,10 @@ from __future__ import annotations
 import math
 import time
 from collections import Counter
-from dataclasses import asdict, fields
 
 import numpy as np
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
 
@@ -36,12 +34,8 @@ from safe_legged_c3bf.filtering.params import FilterParams
 from safe_legged_c3bf.filtering.safety_cycle import CycleOutput, CycleStatus, SafetyFilterCycle
 from safe_legged_c3bf.inputs import StampGate, StampVerdict, cap_nearest
 from safe_legged_c3bf.nodes import ros_common
+from safe_legged_c3bf.nodes.parameters import NodeParameters
 from safe_legged_c3bf_msgs.msg import ObstacleArray, SafetyFilterState
-
-_DESCRIPTIONS = {
-    f.name: (f.name + ": see safe_legged_c3bf/filtering/params.py (SI units)")
-    for f in fields(FilterParams)
-}
 
 
 def obstacles_from_msg(
@@ -75,17 +69,10 @@ class SafetyFilterNode(Node):
         """Create the node; ``kwargs`` go to rclpy's Node (context, parameter_overrides...)."""
         super().__init__("safety_filter", **kwargs)
         ros_common.use_sim_time(self)
-        defaults = asdict(FilterParams())
-        for name, value in defaults.items():
-            if isinstance(value, tuple):
-                value = [float(x) for x in value]
-            descriptor = ParameterDescriptor(description=_DESCRIPTIONS[name])
-            self.declare_parameter(name, value, descriptor)
-        values = {name: self.get_parameter(name).value for name in defaults}
-        values["weights"] = tuple(float(w) for w in values["weights"])
-        params = FilterParams(**values).validate()  # a bad start-up value raises here
+        # A bad start-up value raises here; every parameter can be changed live.
+        self.params = NodeParameters(self, FilterParams, apply=self._apply_params)
+        params = self.params.value
         self.cycle = SafetyFilterCycle(params)
-        self.add_on_set_parameters_callback(self._on_set_parameters)
 
         self._reference = None
         self._reference_time: float | None = None
@@ -117,26 +104,14 @@ class SafetyFilterNode(Node):
         self._last_output: CycleOutput | None = None
 
     # -- parameters ---------------------------------------------------------------------------
-    def _on_set_parameters(self, params) -> SetParametersResult:
-        changes = {}
-        for p in params:
-            if p.name in FilterParams.__dataclass_fields__:
-                changes[p.name] = tuple(p.value) if p.name == "weights" else p.value
-        if not changes:
-            return SetParametersResult(successful=True)
-        try:
-            new = self.cycle.params.updated(**changes)
-        except (ValueError, TypeError) as err:
-            return SetParametersResult(successful=False, reason=str(err))
-        rate_changed = new.rate != self.cycle.params.rate
+    def _apply_params(self, old: FilterParams, new: FilterParams, names: frozenset[str]) -> None:
+        """Use validated new parameters: the cycle's, the stamp gates and the timer's rate."""
         self.cycle.set_params(new)
         self._gates = self._make_gates(new)
-        if rate_changed:
+        if new.rate != old.rate:
             self._timer.cancel()
             self.destroy_timer(self._timer)
             self._timer = self.create_timer(1.0 / new.rate, self._on_timer)
-        self.get_logger().info(f"parameters updated: {changes}")
-        return SetParametersResult(successful=True)
 
     # -- inputs -----------------------------------------------------------------------------
     @staticmethod

@@ -29,7 +29,7 @@ A thin wrapper around :class:`safe_legged_c3bf.sim.world.Simulation`, built from
   frames to ``video_path`` (GIF or MP4, :mod:`safe_legged_c3bf.sim.video`). In-process, a
   bringup can instead call ``node.simulation.record_every(n)`` and ``node.take_frames()``.
 
-Parameters: :data:`~safe_legged_c3bf.nodes.simulator.parameters.PARAMETERS`.
+Parameters: :class:`~safe_legged_c3bf.sim.node_params.SimulatorParams` (all fixed at start-up).
 """
 
 from __future__ import annotations
@@ -45,18 +45,20 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 
 from safe_legged_c3bf import topics
+from safe_legged_c3bf.nodes.parameters import NodeParameters
 from safe_legged_c3bf.nodes.ros_common import diagnostic_status, run_node, to_time_msg
 from safe_legged_c3bf.nodes.simulator.detection_publisher import DetectionPublisher
 from safe_legged_c3bf.nodes.simulator.ground_truth_publisher import GroundTruthPublisher
-from safe_legged_c3bf.nodes.simulator.parameters import PARAMETERS, LoopSettings, declare_parameters
+from safe_legged_c3bf.nodes.simulator.parameters import LoopSettings
 from safe_legged_c3bf.nodes.simulator.physics_loop import PhysicsLoop
 from safe_legged_c3bf.nodes.simulator.quiet_publisher import quiet_publisher
 from safe_legged_c3bf.nodes.simulator.state_publisher import StatePublisher
 from safe_legged_c3bf.sim.motor_driver import DriverMode
+from safe_legged_c3bf.sim.node_params import SimulatorParams
 from safe_legged_c3bf.sim.scenario import ScenarioError
 from safe_legged_c3bf.sim.world import Simulation
 
-__all__ = ["PARAMETERS", "SimulatorNode", "main"]
+__all__ = ["SimulatorNode", "main"]
 
 
 class SimulatorNode(Node):
@@ -65,23 +67,25 @@ class SimulatorNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         """Create the node, start physics; ``kwargs`` go to rclpy's Node (context, overrides...)."""
         super().__init__("simulator", **kwargs)
-        p = declare_parameters(self)
-        physics_dt = 1.0 / float(p["physics_rate"])
-        seed = int(p["seed"])
+        # A bad value raises here, before the world is built; every parameter is read-only.
+        self.params = NodeParameters(self, SimulatorParams)
+        p = self.params.value
+        physics_dt = 1.0 / float(p.physics_rate)
+        seed = int(p.seed)
         self._sim = sim = Simulation(
-            str(p["scenario"]),
+            str(p.scenario),
             physics_dt=physics_dt,
-            gui=bool(p["gui"]),
+            gui=bool(p.gui),
             seed=None if seed < 0 else seed,
-            command_timeout=float(p["command_timeout"]),
-            damping_kd=float(p["damping_kd"]),
+            command_timeout=float(p.command_timeout),
+            damping_kd=float(p.damping_kd),
         )
         settings = LoopSettings.from_parameters(p, sim.scenario.perception.rate)
         self._settings = settings
-        self._summary_path = str(p["summary_path"])
-        self._exit_on_finish = bool(p["exit_on_finish"])
+        self._summary_path = str(p.summary_path)
+        self._exit_on_finish = bool(p.exit_on_finish)
         state = StatePublisher(self, sim, settings.clock_every, settings.odom_every)
-        detections = DetectionPublisher(self, sim, bool(p["strip_detection_ids"]))
+        detections = DetectionPublisher(self, sim, bool(p.strip_detection_ids))
         truth = GroundTruthPublisher(self, sim)
         self._pub_diag = quiet_publisher(self, topics.DIAGNOSTICS)
         #: Held by the physics thread while it uses the world; hold it to use
@@ -100,7 +104,7 @@ class SimulatorNode(Node):
         )
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._diag_timer = self.create_timer(
-            float(p["diagnostics_period"]), self._publish_diagnostics, clock=steady
+            float(p.diagnostics_period), self._publish_diagnostics, clock=steady
         )
         self.get_logger().info(
             f"scenario '{sim.scenario.name}' ({sim.scenario.robot.model}, "
@@ -111,14 +115,14 @@ class SimulatorNode(Node):
         )
         self._loop.start()
 
-    def _open_video(self, p: dict[str, Any], physics_dt: float):  # noqa: ANN202 - VideoWriter
+    def _open_video(self, p: SimulatorParams, physics_dt: float):  # noqa: ANN202 - VideoWriter
         """The video writer of ``video_path`` (None without), the world recording its frames."""
-        if not p["video_path"]:
+        if not p.video_path:
             return None
         from safe_legged_c3bf.sim.video import VideoWriter, frame_interval_steps
 
-        video = VideoWriter(str(p["video_path"]), float(p["video_fps"]))
-        self._sim.record_every(frame_interval_steps(float(p["video_fps"]), physics_dt))
+        video = VideoWriter(str(p.video_path), float(p.video_fps))
+        self._sim.record_every(frame_interval_steps(float(p.video_fps), physics_dt))
         return video
 
     # ------------------------------------------------------------------ public API

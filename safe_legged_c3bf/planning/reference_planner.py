@@ -42,6 +42,18 @@ from enum import StrEnum
 from numbers import Real
 
 from safe_legged_c3bf.rotations import wrap_angle
+from safe_legged_c3bf.typed_params import (
+    FINITE,
+    FLAG,
+    NON_NEGATIVE,
+    POSITIVE,
+    TypedParams,
+    interval,
+    one_of,
+    optional,
+    param,
+    vector,
+)
 
 __all__ = [
     "Goal",
@@ -145,144 +157,112 @@ def validate_goal(
 
 
 @dataclass(frozen=True)
-class PlannerConfig:
+class PlannerConfig(TypedParams):
     """Parameters of :class:`ReferencePlanner` (SI units, validated at construction).
 
-    Attributes
-    ----------
-    mode:
-        :class:`PlannerMode` (or its string value).
-    max_vx:
-        Largest forward speed (m/s).
-    max_vx_backward:
-        Largest backward speed (m/s, >= 0); used by the holonomic mode only (the unicycle
-        mode never reverses).
-    max_vy:
-        Largest lateral speed (m/s); holonomic and constant-velocity modes.
-    max_vz:
-        Largest vertical speed of the height controller (m/s).
-    max_yaw_rate:
-        Largest yaw rate (rad/s).
-    max_linear_accel:
-        Rate limit of vx, vy and vz (m/s^2); ``None`` disables rate limiting.
-    max_yaw_accel:
-        Rate limit of the yaw rate (rad/s^2); ``None`` disables it.
-    k_speed:
-        Speed gain (1/s): commanded speed ``k_speed * distance`` near the goal.
-    k_heading:
-        Heading gain (1/s) towards the goal (goal mode).
-    k_yaw:
-        Gain (1/s) of the final yaw alignment (and of the yaw in holonomic mode).
-    k_z:
-        Height gain (1/s).
-    z_nominal:
-        Body height to hold (m, odom z of base_link).
-    hold_height:
-        If false the vertical command is always 0.
-    goal_tolerance:
-        The goal position is reached within this distance (m).
-    resume_distance:
-        After arriving, the planner moves again only beyond this distance (m,
-        > goal_tolerance).
-    yaw_tolerance:
-        The goal yaw is reached within this error (rad).
-    yaw_resume_tolerance:
-        After arriving, the planner turns again only beyond this yaw error (rad,
-        > yaw_tolerance).
-    heading_slowdown_angle:
-        Goal mode: forward speed factor ``(cos e - cos a) / (1 - cos a)`` for heading error
-        ``|e| < a``, 0 beyond (rad, in (0, pi/2]).  pi/2 gives the classic ``cos e``.
-    constant_velocity:
-        ``(vx, vy, yaw_rate)`` output in constant-velocity mode; must respect the limits.
-    control_period:
-        Nominal call period (s), used as time step by the rate limiter when no time is
-        given to :meth:`ReferencePlanner.compute` (and on the first call).
-
+    Each field carries its unit and description. ``mode`` may be given as a string; it is
+    stored as a :class:`PlannerMode`.
     """
 
-    mode: PlannerMode | str = PlannerMode.GOAL
-    max_vx: float = 0.5
-    max_vx_backward: float = 0.25
-    max_vy: float = 0.3
-    max_vz: float = 0.2
-    max_yaw_rate: float = 1.0
-    max_linear_accel: float | None = None
-    max_yaw_accel: float | None = None
-    k_speed: float = 0.8
-    k_heading: float = 2.0
-    k_yaw: float = 1.5
-    k_z: float = 2.0
-    z_nominal: float = 0.30
-    hold_height: bool = True
-    goal_tolerance: float = 0.05
-    resume_distance: float = 0.15
-    yaw_tolerance: float = 0.05
-    yaw_resume_tolerance: float = 0.15
-    heading_slowdown_angle: float = math.pi / 3
-    constant_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    control_period: float = 0.02
+    mode: PlannerMode | str = param(
+        PlannerMode.GOAL, "-", "planner mode (a name): 'goal' (unicycle to the goal), "
+        "'holonomic' (straight to the goal with vx and vy) or 'constant_velocity'",
+        one_of(*(m.value for m in PlannerMode)),
+    )
+    max_vx: float = param(0.5, "m/s", "largest forward speed", POSITIVE)
+    max_vx_backward: float = param(
+        0.25, "m/s", "largest backward speed; holonomic mode only (the unicycle mode never "
+        "reverses)", NON_NEGATIVE,
+    )
+    max_vy: float = param(
+        0.3, "m/s", "largest lateral speed; holonomic and constant-velocity modes", POSITIVE
+    )
+    max_vz: float = param(0.2, "m/s", "largest vertical speed of the height hold", POSITIVE)
+    max_yaw_rate: float = param(1.0, "rad/s", "largest yaw rate", POSITIVE)
+    max_linear_accel: float | None = param(
+        None, "m/s^2", "rate limit of vx, vy and vz; None disables rate limiting",
+        optional(POSITIVE),
+    )
+    max_yaw_accel: float | None = param(
+        None, "rad/s^2", "rate limit of the yaw rate; None disables it", optional(POSITIVE)
+    )
+    k_speed: float = param(
+        0.8, "1/s", "speed gain: commanded speed k_speed * distance near the goal; in goal "
+        "mode < k_heading and < 2 max_yaw_rate (otherwise the robot may orbit the goal)",
+        POSITIVE,
+    )
+    k_heading: float = param(2.0, "1/s", "heading gain towards the goal (goal mode)", POSITIVE)
+    k_yaw: float = param(
+        1.5, "1/s", "gain of the final yaw alignment (and of the yaw in holonomic mode)",
+        POSITIVE,
+    )
+    k_z: float = param(2.0, "1/s", "height gain", POSITIVE)
+    z_nominal: float = param(
+        0.30, "m", "body height held through the vertical command (odom z of base_link)",
+        FINITE,
+    )
+    hold_height: bool = param(
+        True, "-", "hold z_nominal (flag); false: the vertical command is always 0", FLAG
+    )
+    goal_tolerance: float = param(
+        0.05, "m", "the goal position is reached within this distance", POSITIVE
+    )
+    resume_distance: float = param(
+        0.15, "m", "after arriving, the planner moves again only beyond this distance; "
+        "> goal_tolerance (hysteresis)", POSITIVE,
+    )
+    yaw_tolerance: float = param(
+        0.05, "rad", "the goal yaw is reached within this error", POSITIVE
+    )
+    yaw_resume_tolerance: float = param(
+        0.15, "rad", "after arriving, the planner turns again only beyond this yaw error; "
+        "> yaw_tolerance (hysteresis)", POSITIVE,
+    )
+    heading_slowdown_angle: float = param(
+        math.pi / 3, "rad", "goal mode: forward speed factor (cos e - cos a) / (1 - cos a) "
+        "for heading error |e| < a, 0 beyond; pi/2 gives the classic cos e",
+        interval(0.0, math.pi / 2, closed_high=True, high_text="pi/2"),
+    )
+    constant_velocity: tuple[float, float, float] = param(
+        (0.0, 0.0, 0.0), "m/s, m/s, rad/s", "(vx, vy, yaw_rate) output in constant-velocity "
+        "mode; must respect the limits", vector(3, FINITE),
+    )
+    control_period: float = param(
+        0.02, "s", "nominal call period, used as time step by the rate limiter when no time "
+        "is given to ReferencePlanner.compute (and on the first call)", POSITIVE,
+    )
 
     def __post_init__(self) -> None:
         """Validate; raise ``ValueError`` whose message names the offending parameter."""
-        try:
-            object.__setattr__(self, "mode", PlannerMode(self.mode))
-        except ValueError:
-            modes = ", ".join(m.value for m in PlannerMode)
-            raise ValueError(f"mode must be one of {modes}, got {self.mode!r}") from None
-        positive = (
-            "max_vx",
-            "max_vy",
-            "max_vz",
-            "max_yaw_rate",
-            "k_speed",
-            "k_heading",
-            "k_yaw",
-            "k_z",
-            "goal_tolerance",
-            "resume_distance",
-            "yaw_tolerance",
-            "yaw_resume_tolerance",
-            "heading_slowdown_angle",
-            "control_period",
+        self.validate()
+        object.__setattr__(self, "mode", PlannerMode(self.mode))
+        object.__setattr__(
+            self, "constant_velocity", tuple(float(c) for c in self.constant_velocity)
         )
-        for name in positive:
-            self._require(name, lambda v: v > 0, "a finite number > 0")
-        self._require("max_vx_backward", lambda v: v >= 0, "a finite number >= 0")
-        self._require("z_nominal", lambda v: True, "a finite number")
-        for name in ("max_linear_accel", "max_yaw_accel"):
-            if getattr(self, name) is not None:
-                self._require(name, lambda v: v > 0, "None or a finite number > 0")
-        if not isinstance(self.hold_height, bool):
-            raise ValueError(f"hold_height must be a bool, got {self.hold_height!r}")
-        if self.resume_distance <= self.goal_tolerance:
-            raise ValueError("resume_distance must be > goal_tolerance (hysteresis)")
-        if self.yaw_resume_tolerance <= self.yaw_tolerance:
-            raise ValueError("yaw_resume_tolerance must be > yaw_tolerance (hysteresis)")
-        if self.heading_slowdown_angle > math.pi / 2:
-            raise ValueError("heading_slowdown_angle must be <= pi/2")
-        if self.mode is PlannerMode.GOAL:  # convergence conditions of the unicycle law
-            if self.k_speed >= self.k_heading:
-                raise ValueError("k_heading must be > k_speed (otherwise the robot may orbit)")
-            if self.k_speed >= 2.0 * self.max_yaw_rate:
-                raise ValueError("k_speed must be < 2 * max_yaw_rate (otherwise it may orbit)")
-        cv = self.constant_velocity
-        if (
-            not isinstance(cv, tuple | list)
-            or len(cv) != 3
-            or not all(_is_number(c) and math.isfinite(float(c)) for c in cv)
-        ):
-            raise ValueError(f"constant_velocity must be 3 finite numbers, got {cv!r}")
-        vx, vy, wz = (float(c) for c in cv)
-        if not (-self.max_vx_backward <= vx <= self.max_vx and abs(vy) <= self.max_vy):
-            raise ValueError("constant_velocity exceeds max_vx/max_vx_backward/max_vy")
-        if abs(wz) > self.max_yaw_rate:
-            raise ValueError("constant_velocity yaw rate exceeds max_yaw_rate")
-        object.__setattr__(self, "constant_velocity", (vx, vy, wz))
 
-    def _require(self, name: str, check, what: str) -> None:
-        value = getattr(self, name)
-        if not _is_number(value) or not math.isfinite(float(value)) or not check(float(value)):
-            raise ValueError(f"{name} must be {what}, got {value!r}")
+    def check_together(self) -> None:
+        """Hysteresis, the goal mode's convergence conditions, constant velocity in limits."""
+        if self.resume_distance <= self.goal_tolerance:
+            raise ValueError("resume_distance: must be > goal_tolerance (hysteresis), got "
+                             f"{self.resume_distance!r} <= {self.goal_tolerance!r}")
+        if self.yaw_resume_tolerance <= self.yaw_tolerance:
+            raise ValueError("yaw_resume_tolerance: must be > yaw_tolerance (hysteresis), got "
+                             f"{self.yaw_resume_tolerance!r} <= {self.yaw_tolerance!r}")
+        if PlannerMode(self.mode) is PlannerMode.GOAL:  # convergence of the unicycle law
+            if self.k_speed >= self.k_heading:
+                raise ValueError("k_heading: must be > k_speed (otherwise the robot may "
+                                 f"orbit), got {self.k_heading!r} <= {self.k_speed!r}")
+            if self.k_speed >= 2.0 * self.max_yaw_rate:
+                raise ValueError("k_speed: must be < 2 * max_yaw_rate (otherwise it may "
+                                 f"orbit), got {self.k_speed!r}, max_yaw_rate "
+                                 f"{self.max_yaw_rate!r}")
+        vx, vy, wz = (float(c) for c in self.constant_velocity)
+        if not (-self.max_vx_backward <= vx <= self.max_vx and abs(vy) <= self.max_vy):
+            raise ValueError("constant_velocity: exceeds max_vx/max_vx_backward/max_vy, got "
+                             f"{self.constant_velocity!r}")
+        if abs(wz) > self.max_yaw_rate:
+            raise ValueError("constant_velocity: yaw rate exceeds max_yaw_rate, got "
+                             f"{self.constant_velocity!r}")
 
 
 class ReferencePlanner:

@@ -37,8 +37,9 @@ from pydantic_core import PydanticCustomError
 
 from safe_legged_c3bf.node_parameters import (
     OVERRIDE_NODES,
-    STRICT_DOUBLE_SECTIONS,
+    override_fixed_parameters,
     override_parameter_defaults,
+    override_refuses_integers,
 )
 from safe_legged_c3bf.sim.robots import ROBOTS
 
@@ -48,8 +49,6 @@ WAYPOINT_MODES = ("pingpong", "cycle", "stop")
 PLANNER_MODES = ("goal", "constant_velocity")
 #: Keys of the planner section that are the scenario's own, not planner node parameters.
 PLANNER_FIELDS = ("mode", "speed", "velocity")
-#: Planner node parameters a scenario may not override: the bringup sets them.
-PLANNER_RESERVED = ("scenario",)
 #: Most error lines in one message.
 MAX_LINES = 10
 
@@ -203,8 +202,8 @@ def _is_number(value: Any) -> bool:
 def override_value(name: str, default: Any, node: str, strict_double: bool) -> PlainValidator:
     """A parameter override of the type of the node's default for it.
 
-    ``strict_double``: the node declares doubles without dynamic typing, so rclpy refuses an
-    integer for them (the node would fail to start).
+    ``strict_double``: the node's parameter class refuses an integer for a float (the node
+    would fail to start).
     """
 
     def check(value: Any) -> Any:
@@ -431,10 +430,14 @@ def _check_planner(self: BaseModel) -> BaseModel:
 def _override_model(section: str) -> type[OverrideSection]:
     """A model whose fields are the parameters of the node a section configures."""
     node = OVERRIDE_NODES[section]
-    strict = section in STRICT_DOUBLE_SECTIONS
+    strict = override_refuses_integers(section)
+    # The planner applies its section after it started: its parameters fixed at start-up
+    # (the scenario itself, which the bringup sets, and diagnostics_period) are not there.
+    left_out = (*PLANNER_FIELDS, *override_fixed_parameters(section)) if section == "planner" \
+        else ()
     defaults = {
         name: default for name, default in override_parameter_defaults(section).items()
-        if not (section == "planner" and name in (*PLANNER_FIELDS, *PLANNER_RESERVED))
+        if name not in left_out
     }
     # Fields get neutral names and the parameter name as alias: a parameter may be called
     # like a BaseModel attribute.

@@ -20,11 +20,11 @@ import math
 from collections import deque
 from dataclasses import dataclass, field
 from enum import IntEnum, StrEnum
-from numbers import Integral, Real
 
 import numpy as np
 
 from safe_legged_c3bf.tracking.kalman import ConstantVelocityKalmanFilter
+from safe_legged_c3bf.typed_params import NON_NEGATIVE, POSITIVE, TypedParams, at_least, param
 
 __all__ = [
     "Detection",
@@ -157,71 +157,61 @@ class TrackedObstacle:
         return float(np.linalg.norm(self.velocity))
 
 
-def _positive(name: str, value: float) -> None:
-    ok = isinstance(value, Real) and not isinstance(value, bool)
-    if not (ok and math.isfinite(value) and value > 0):
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-
-
 @dataclass(frozen=True)
-class TrackConfig:
-    """Parameters of a track's filter and lifecycle.
+class TrackConfig(TypedParams):
+    """Parameters of a track's filter and lifecycle (validated at construction).
 
-    Attributes
-    ----------
-    accel_psd:
-        Kalman process noise, white acceleration spectral density (m^2/s^3).  0.001 keeps
-        the velocity of static/constant-velocity obstacles within about 0.02 m/s RMS with
-        2 cm measurement noise at 30 Hz; a sharp velocity change (0.5 m/s turned by 90
-        degrees) is followed within about 1 s.
-    measurement_std:
-        Position measurement noise per axis (m).
-    initial_velocity_std:
-        Prior velocity standard deviation of a new track (m/s); covers walking speeds.
-    confirm_hits, confirm_window:
-        A track is confirmed after ``confirm_hits`` hits in the last ``confirm_window``
-        tracker cycles (N-of-M rule).
-    max_coast_time:
-        A confirmed track is deleted when not updated for longer than this (s).
-    tentative_max_coast_time:
-        A tentative track is deleted when not updated for longer than this (s).
-    velocity_min_hits:
-        Minimum number of hits before ``velocity_estimated`` can be true.
-    velocity_std_threshold:
-        Largest velocity standard deviation (square root of the largest eigenvalue of the
-        velocity covariance, m/s) for ``velocity_estimated`` to be true.
-
+    A track is confirmed after ``confirm_hits`` hits in the last ``confirm_window`` tracker
+    cycles (N-of-M rule). Each field carries its unit and description.
     """
 
-    accel_psd: float = 0.001
-    measurement_std: float = 0.02
-    initial_velocity_std: float = 1.5
-    confirm_hits: int = 3
-    confirm_window: int = 5
-    max_coast_time: float = 1.0
-    tentative_max_coast_time: float = 0.2
-    velocity_min_hits: int = 5
-    velocity_std_threshold: float = 0.2
+    accel_psd: float = param(
+        0.001, "m^2/s^3", "Kalman process noise, white acceleration spectral density. 0.001 "
+        "keeps the velocity of static/constant-velocity obstacles within about 0.02 m/s RMS "
+        "with 2 cm measurement noise at 30 Hz; a sharp velocity change (0.5 m/s turned by 90 "
+        "degrees) is followed within about 1 s", NON_NEGATIVE,
+    )
+    measurement_std: float = param(0.02, "m", "position measurement noise per axis", POSITIVE)
+    initial_velocity_std: float = param(
+        1.5, "m/s", "prior velocity standard deviation of a new track; covers walking speeds",
+        POSITIVE,
+    )
+    confirm_hits: int = param(
+        3, "-", "hits (a count) in the last confirm_window cycles that confirm a track",
+        at_least(1),
+    )
+    confirm_window: int = param(
+        5, "-", "tracker cycles (a count) of the N-of-M confirmation rule; >= confirm_hits",
+        at_least(1),
+    )
+    max_coast_time: float = param(
+        1.0, "s", "a confirmed track is deleted when not updated for longer than this",
+        POSITIVE,
+    )
+    tentative_max_coast_time: float = param(
+        0.2, "s", "a tentative track is deleted when not updated for longer than this",
+        POSITIVE,
+    )
+    velocity_min_hits: int = param(
+        5, "-", "least number of hits (a count) before velocity_estimated can be true",
+        at_least(1),
+    )
+    velocity_std_threshold: float = param(
+        0.2, "m/s", "largest velocity standard deviation (square root of the largest "
+        "eigenvalue of the velocity covariance) for velocity_estimated to be true", POSITIVE,
+    )
 
     def __post_init__(self) -> None:
         """Validate the parameters (raises ``ValueError`` naming the bad one)."""
-        psd = self.accel_psd
-        if not (isinstance(psd, Real) and math.isfinite(psd) and psd >= 0):
-            raise ValueError(f"accel_psd must be finite and >= 0, got {self.accel_psd!r}")
-        for name in (
-            "measurement_std",
-            "initial_velocity_std",
-            "max_coast_time",
-            "tentative_max_coast_time",
-            "velocity_std_threshold",
-        ):
-            _positive(name, getattr(self, name))
-        for name in ("confirm_hits", "confirm_window", "velocity_min_hits"):
-            value = getattr(self, name)
-            if not isinstance(value, Integral) or isinstance(value, bool) or value < 1:
-                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+        self.validate()
+
+    def check_together(self) -> None:
+        """The confirmation rule needs confirm_hits <= confirm_window."""
         if self.confirm_hits > self.confirm_window:
-            raise ValueError("confirm_hits must be <= confirm_window")
+            raise ValueError(
+                f"confirm_hits/confirm_window: need confirm_hits <= confirm_window, got "
+                f"{self.confirm_hits!r}, {self.confirm_window!r}"
+            )
 
 
 @dataclass

@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from enum import StrEnum
 
 import numpy as np
@@ -33,6 +33,16 @@ from safe_legged_c3bf.tracking.track import (
     Track,
     TrackConfig,
     TrackedObstacle,
+)
+from safe_legged_c3bf.typed_params import (
+    NON_EMPTY,
+    NON_NEGATIVE,
+    POSITIVE_OR_INF,
+    TypedParams,
+    at_least,
+    group,
+    interval,
+    param,
 )
 
 __all__ = [
@@ -59,87 +69,71 @@ class RejectionReason(StrEnum):
 
 
 @dataclass(frozen=True)
-class TrackerConfig:
-    """Tracker parameters.
+class TrackerConfig(TypedParams):
+    """Tracker parameters (validated at construction); ``track``: per-track parameters.
 
-    Attributes
-    ----------
-    frame_id:
-        Frame every detection must be expressed in.
-    max_range:
-        Detections farther than this from the reference point (the robot position passed
-        to :meth:`MultiObstacleTracker.update`, else the frame origin) are rejected (m).
-    max_semi_axis:
-        Detections with a larger semi-axis are rejected as implausible (m).
-    gate_probability:
-        Probability mass of the chi-square (3 dof) association gate.
-    gate_floor:
-        Standard deviation (m) added isotropically to the innovation covariance for gating
-        and assignment only.  It absorbs unmodelled maneuvers: with the low default process
-        noise the Kalman innovation covariance is a few centimetres wide, and a walking
-        obstacle that turns sharply would otherwise fall out of its own gate.
-    max_detections:
-        Detections kept from one batch, nearest to the robot first; the rest are rejected
-        as ``too_many`` (bounded work on a flood).
-    max_reorder:
-        A batch may be up to this much older than the newest one processed (s) and is
-        still used: two detectors on one topic, or one delayed frame, are merged instead of
-        rejected. Older batches are rejected as ``stale_timestamp``.
-    keep_near_distance:
-        A confirmed track whose ellipse comes within this distance of the robot (m) is kept
-        past ``track.max_coast_time`` while the robot moves: an obstacle close by that stops
-        being detected (drop-out, occlusion, a poisoned or lost frame) is not forgotten.
-    keep_near_max_coast_time:
-        Longest a near track is kept without an update while the robot moves (s).
-    robot_stopped_speed:
-        The robot counts as stopped below this planar speed (m/s); near tracks are then
-        deleted by the ordinary ``max_coast_time`` rule.
-    coast_growth:
-        Growth of a coasting track's semi-axes per second without an update (m/s), after
-        ``coast_growth_after`` s: the published ellipse covers where the unseen obstacle
-        may have gone.
-    coast_growth_after:
-        Time without an update before the semi-axes start to grow (s): a few detection
-        periods, so ordinary gaps between frames do not grow obstacles.
-    track:
-        Per-track filter and lifecycle parameters.
-
+    Each field carries its unit and description.
     """
 
-    frame_id: str = "odom"
-    max_range: float = 15.0
-    max_semi_axis: float = 5.0
-    gate_probability: float = 0.9999
-    gate_floor: float = 0.1
-    max_detections: int = 64
-    max_reorder: float = 0.5
-    keep_near_distance: float = 1.5
-    keep_near_max_coast_time: float = 5.0
-    robot_stopped_speed: float = 0.05
-    coast_growth: float = 0.3
-    coast_growth_after: float = 0.3
-    track: TrackConfig = field(default_factory=TrackConfig)
+    frame_id: str = param("odom", "-", "frame every detection must be expressed in (a name)",
+                          NON_EMPTY)
+    max_range: float = param(
+        15.0, "m", "detections farther than this from the reference point (the robot "
+        "position passed to MultiObstacleTracker.update, else the frame origin) are rejected",
+        POSITIVE_OR_INF,
+    )
+    max_semi_axis: float = param(
+        5.0, "m", "detections with a larger semi-axis are rejected as implausible",
+        POSITIVE_OR_INF,
+    )
+    gate_probability: float = param(
+        0.9999, "-", "probability (unitless) mass of the chi-square (3 dof) association gate",
+        interval(0.0, 1.0),
+    )
+    gate_floor: float = param(
+        0.1, "m", "standard deviation added isotropically to the innovation covariance for "
+        "gating and assignment only. It absorbs unmodelled maneuvers: with the low default "
+        "process noise the Kalman innovation covariance is a few centimetres wide, and a "
+        "walking obstacle that turns sharply would otherwise fall out of its own gate",
+        NON_NEGATIVE,
+    )
+    max_detections: int = param(
+        64, "-", "detections (a count) kept from one batch, nearest to the robot first; the "
+        "rest are rejected as too_many (bounded work on a flood)", at_least(1),
+    )
+    max_reorder: float = param(
+        0.5, "s", "a batch may be up to this much older than the newest one processed and is "
+        "still used: two detectors on one topic, or one delayed frame, are merged instead of "
+        "rejected. Older batches are rejected as stale_timestamp", NON_NEGATIVE,
+    )
+    keep_near_distance: float = param(
+        1.5, "m", "a confirmed track whose ellipse comes within this distance of the robot is "
+        "kept past max_coast_time while the robot moves: an obstacle close by that stops being "
+        "detected (drop-out, occlusion, a poisoned or lost frame) is not forgotten",
+        NON_NEGATIVE,
+    )
+    keep_near_max_coast_time: float = param(
+        5.0, "s", "longest a near track is kept without an update while the robot moves",
+        NON_NEGATIVE,
+    )
+    robot_stopped_speed: float = param(
+        0.05, "m/s", "the robot counts as stopped below this planar speed; near tracks are "
+        "then deleted by the ordinary max_coast_time rule", NON_NEGATIVE,
+    )
+    coast_growth: float = param(
+        0.3, "m/s", "growth of a coasting track's semi-axes per second without an update, "
+        "after coast_growth_after: the published ellipse covers where the unseen obstacle may "
+        "have gone", NON_NEGATIVE,
+    )
+    coast_growth_after: float = param(
+        0.3, "s", "time without an update before the semi-axes start to grow: a few detection "
+        "periods, so ordinary gaps between frames do not grow obstacles", NON_NEGATIVE,
+    )
+    track: TrackConfig = group(TrackConfig)
 
     def __post_init__(self) -> None:
         """Validate the parameters (raises ``ValueError`` naming the bad one)."""
-        for name in ("max_range", "max_semi_axis"):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and value > 0 and not math.isnan(value)):
-                raise ValueError(f"{name} must be > 0, got {value!r}")
-        if not 0.0 < self.gate_probability < 1.0:
-            raise ValueError(f"gate_probability must be in (0, 1), got {self.gate_probability!r}")
-        if not (math.isfinite(self.gate_floor) and self.gate_floor >= 0.0):
-            raise ValueError(f"gate_floor must be finite and >= 0, got {self.gate_floor!r}")
-        value = self.max_detections
-        if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
-            raise ValueError(f"max_detections must be an integer >= 1, got {value!r}")
-        for name in ("max_reorder", "keep_near_distance", "keep_near_max_coast_time",
-                     "robot_stopped_speed", "coast_growth", "coast_growth_after"):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be finite and >= 0, got {value!r}")
-        if not isinstance(self.track, TrackConfig):
-            raise ValueError("track must be a TrackConfig")
+        self.validate()
 
 
 @dataclass(frozen=True)

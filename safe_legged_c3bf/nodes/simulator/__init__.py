@@ -1,6 +1,7 @@
 """The parts of the ``simulator`` node; :mod:`safe_legged_c3bf.nodes.simulator_node` wires them.
 
-* :mod:`.parameters`: the node's parameters and the loop's step intervals;
+* :mod:`.parameters`: the loop's step intervals (the node's parameters are
+  :class:`safe_legged_c3bf.sim.node_params.SimulatorParams`);
 * :mod:`.physics_loop`: the physics thread (pacing, lockstep, first-command wait);
 * :mod:`.command_bus`: /joint_commands, read by the physics thread without an executor;
 * :mod:`.state_publisher`: /clock, /odom, /imu, /joint_states (:mod:`.cdr_template`);
