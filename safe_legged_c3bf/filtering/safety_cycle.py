@@ -108,6 +108,10 @@ def _toward_zero(x: float, step: float) -> float:
     return 0.0 if abs(x) <= step else x - math.copysign(step, x)
 
 
+def _with_ref(text: str, ref_stale: bool) -> str:
+    return text + " (reference stale: zero)" if ref_stale else text
+
+
 def _fresh(age: float, timeout: float, max_future: float) -> bool:
     """True when a stamp ``age`` s old (negative: from the future) is usable."""
     return -max_future <= age <= timeout
@@ -216,100 +220,111 @@ class SafetyFilterCycle:
 
         """
         p = self.params
-        # Cycle period (s): nominal at first; never 0 (two cycles at one stamp, or sim time
-        # going back) and never more than two periods (the integrator must not leap).
-        period = 1.0 / p.rate
-        dt = period if self._last_t is None else min(max(t - self._last_t, 0.25 * period),
-                                                     2.0 * period)
-        self._last_t = t
+        dt = self._advance(t)
         ref_stale = reference is None or reference_time is None or not _fresh(
             t - reference_time, p.reference_timeout, p.max_future_stamp
         )
         ref = VelocityCommand() if ref_stale else reference
-        ref_arr = ref.as_array()  # vx, vy, vz, wz
-
         if not p.enabled:
-            self._v = ref_arr.copy()
+            self._v = ref.as_array()
             self._initialised = False
             text = "filter disabled: reference passed through"
-            if ref_stale:
-                text += " (reference stale: zero)"
-            return CycleOutput(ref, CycleStatus.PASS_THROUGH, text, ref, ref_stale)
+            return CycleOutput(ref, CycleStatus.PASS_THROUGH, _with_ref(text, ref_stale), ref,
+                               ref_stale)
+        stale = self._stale_inputs(t, base, obstacles, obstacles_time)
+        if stale:
+            return self._braked(dt, CycleStatus.STALE_INPUT, f"{stale} stale: braking to zero",
+                                ref, ref_stale)
+        measured, yaw = self._measured(base)
+        if not self._initialised:
+            self._v = self._clip_velocity(measured)
+            self._initialised = True
+        pos = base.position
+        try:  # obstacles predicted to now from their stamp
+            circles, ids = to_c3bf_obstacles(
+                obstacles, t - obstacles_time, float(pos[1]), p.robot_width, p.robot_height,
+                p.safety_margin, p.horizontal_y_margin, yaw, p.tie_break,
+            )
+        except InvalidInputError as err:
+            return self._braked(dt, CycleStatus.INVALID_INPUT, f"rejected obstacles: {err}",
+                                ref, ref_stale)
+        vanished = self._check_vanished(t, obstacles, pos, yaw)
+        self._vanish_watch.observe(t, ids, circles)
+        if vanished is not None:
+            out = self._braked(
+                dt, CycleStatus.EMERGENCY_BRAKE,
+                f"obstacle '{vanished.obstacle_id}' vanished {vanished.clearance:.2f} m away, "
+                f"inside the stopping distance {vanished.stopping_distance:.2f} m: braking "
+                "to a stop", ref, ref_stale,
+            )
+            if not self._v.any():  # stopped: the vanished obstacle has been answered
+                self._vanish_brake = None
+            return out
+        return self._filtered(t, dt, ref, ref_stale, pos, yaw, measured, circles, ids)
 
+    def _advance(self, t: float) -> float:
+        """The integration step of the cycle at ``t`` (s).
+
+        Nominal at first; never 0 (two cycles at one stamp, or time going back: a quarter
+        period) nor more than two periods (the integrator must not leap).
+        """
+        period = 1.0 / self.params.rate
+        last, self._last_t = self._last_t, t
+        return period if last is None else min(max(t - last, 0.25 * period), 2.0 * period)
+
+    def _stale_inputs(self, t: float, base, obstacles, obstacles_time) -> str:  # noqa: ANN001
+        """'odometry', 'obstacles', both joined by 'and', or '' when both are fresh."""
+        p = self.params
         odom_stale = base is None or not _fresh(
             t - base.stamp, p.odom_timeout, p.max_future_stamp
         )
         obstacles_stale = obstacles is None or obstacles_time is None or not _fresh(
             t - obstacles_time, p.obstacles_timeout, p.max_future_stamp
         )
-        if odom_stale or obstacles_stale:
-            self._brake(dt)
-            what = " and ".join(
-                n for n, s in (("odometry", odom_stale), ("obstacles", obstacles_stale)) if s
-            )
-            return CycleOutput(
-                self.commanded, CycleStatus.STALE_INPUT, f"{what} stale: braking to zero",
-                ref, ref_stale,
-            )
+        return " and ".join(
+            n for n, s in (("odometry", odom_stale), ("obstacles", obstacles_stale)) if s
+        )
 
-        measured, yaw = self._measured(base)
-        if not self._initialised:
-            self._v = self._clip_velocity(measured)
-            self._initialised = True
+    def _braked(
+        self, dt: float, status: CycleStatus, text: str, ref: VelocityCommand, ref_stale: bool,
+        u_ref: np.ndarray | None = None,
+    ) -> CycleOutput:
+        """Brake every velocity towards zero at ``brake_decel`` and say why."""
+        self._brake(dt)
+        out = CycleOutput(self.commanded, status, text, ref, ref_stale)
+        if u_ref is not None:
+            out.u_reference = u_ref
+        return out
 
-        pos = base.position
-        v = self._v
-        # Predict obstacles to now from their stamp.
-        try:
-            circles, ids = to_c3bf_obstacles(
-                obstacles, t - obstacles_time, float(pos[1]), p.robot_width, p.robot_height,
-                p.safety_margin, p.horizontal_y_margin, yaw, p.tie_break,
-            )
-        except InvalidInputError as err:
-            self._brake(dt)
-            return CycleOutput(
-                self.commanded, CycleStatus.INVALID_INPUT, f"rejected obstacles: {err}", ref,
-                ref_stale,
-            )
-        vanished = self._check_vanished(t, obstacles, pos, yaw)
-        self._vanish_watch.observe(t, ids, circles)
-        if vanished is not None:
-            self._brake(dt)
-            if not self._v.any():  # stopped: the vanished obstacle has been answered
-                self._vanish_brake = None
-            return CycleOutput(
-                self.commanded, CycleStatus.EMERGENCY_BRAKE,
-                f"obstacle '{vanished.obstacle_id}' vanished {vanished.clearance:.2f} m away, "
-                f"inside the stopping distance {vanished.stopping_distance:.2f} m: braking "
-                "to a stop", ref, ref_stale,
-            )
-        deadlocked = False
-        if p.model == "unicycle":
-            deadlocked = self._deadlock_turn(t, ref_arr, circles, pos, yaw)
+    def _model_problem(
+        self, ref_arr: np.ndarray, pos: np.ndarray, yaw: float
+    ) -> tuple[np.ndarray, np.ndarray, tuple[int, int, int]]:
+        """The QP's state, reference input and integrated velocity index per input.
+
+        The reference input is u_ref = k (v_ref - v), saturated at the input limits.
+        """
+        p, v = self.params, self._v
+        if p.model == "unicycle":  # inputs (a, alpha, a_z) -> vx, wz, vz
             state = np.array([pos[0], pos[1], yaw, v[0], v[3], pos[2], v[2]])
-            u_ref = np.array(
-                [
-                    _sat(p.k_v * (ref_arr[0] - v[0]), p.max_accel),
-                    _sat(p.k_w * (ref_arr[3] - v[3]), p.max_yaw_accel),
-                    _sat(p.k_z * (ref_arr[2] - v[2]), p.max_vertical_accel),
-                ]
-            )
-            # integrated velocity index for each input: vx, wz, vz
-            idx = (0, 3, 2)
-        else:
+            gains = ((p.k_v, 0, p.max_accel), (p.k_w, 3, p.max_yaw_accel))
+        else:  # inputs (a_x, a_y, a_z) -> vx, vy, vz
             c, s = math.cos(yaw), math.sin(yaw)
             state = np.array(
                 [pos[0], pos[1], c * v[0] - s * v[1], s * v[0] + c * v[1], pos[2], v[2]]
             )
-            u_ref = np.array(
-                [
-                    _sat(p.k_v * (ref_arr[0] - v[0]), p.max_accel),
-                    _sat(p.k_v * (ref_arr[1] - v[1]), p.max_accel),
-                    _sat(p.k_z * (ref_arr[2] - v[2]), p.max_vertical_accel),
-                ]
-            )
-            idx = (0, 1, 2)
+            gains = ((p.k_v, 0, p.max_accel), (p.k_v, 1, p.max_accel))
+        gains += ((p.k_z, 2, p.max_vertical_accel),)
+        u_ref = np.array([_sat(k * (ref_arr[j] - v[j]), limit) for k, j, limit in gains])
+        return state, u_ref, tuple(j for _, j, _ in gains)
 
+    def _filtered(  # noqa: ANN001 - circles: c3bf Obstacles
+        self, t, dt, ref, ref_stale, pos, yaw, measured, circles, ids
+    ) -> CycleOutput:
+        """The C3BF QP on the reference, integrated into the command (fresh inputs)."""
+        p, v = self.params, self._v
+        ref_arr = ref.as_array()  # vx, vy, vz, wz
+        deadlocked = p.model == "unicycle" and self._deadlock_turn(t, ref_arr, circles, pos, yaw)
+        state, u_ref, idx = self._model_problem(ref_arr, pos, yaw)
         u_min, u_max = self._bounds(v, measured, float(pos[2]), dt, idx)
         u_ref_clipped = np.minimum(np.maximum(u_ref, u_min), u_max)  # np.clip, less overhead
         try:
@@ -317,11 +332,8 @@ class SafetyFilterCycle:
                 state, u_ref_clipped, circles, yaw=yaw, u_min=u_min, u_max=u_max
             )
         except InvalidInputError as err:
-            self._brake(dt)
-            return CycleOutput(
-                self.commanded, CycleStatus.INVALID_INPUT, f"rejected input: {err}", ref,
-                ref_stale, u_ref,
-            )
+            return self._braked(dt, CycleStatus.INVALID_INPUT, f"rejected input: {err}", ref,
+                                ref_stale, u_ref)
         u = result.u_safe
         new_v = v.copy()
         for k, j in enumerate(idx):
@@ -336,10 +348,9 @@ class SafetyFilterCycle:
         text = result.message or status.name.lower()
         if deadlocked:
             text += f" (deadlock: turning {'left' if self._detour_side > 0 else 'right'})"
-        if ref_stale:
-            text += " (reference stale: zero)"
         return CycleOutput(
-            self.commanded, status, text, ref, ref_stale, u_ref, u.copy(), result, ids
+            self.commanded, status, _with_ref(text, ref_stale), ref, ref_stale, u_ref,
+            u.copy(), result, ids,
         )
 
     def _check_vanished(self, t: float, obstacles, pos: np.ndarray, yaw: float):  # noqa: ANN001

@@ -291,8 +291,8 @@ class MultiObstacleTracker:
             Detections of one sensor message.  A tracked obstacle absent from the batch is
             counted as a miss for its track.
         t:
-            Time stamp of the batch.  Batches older than the previous one are rejected as a
-            whole (each detection counted as ``stale_timestamp``).
+            Time stamp of the batch.  Batches more than ``max_reorder`` older than the newest
+            one are rejected as a whole (each detection counted as ``stale_timestamp``).
         robot_position:
             Reference point ``(x, y[, z])`` for the range check (odom frame); the origin if
             omitted or not finite.
@@ -300,73 +300,25 @@ class MultiObstacleTracker:
         """
         detections = list(detections)
         t = float(t)
-        rejected: list[tuple[int, RejectionReason]] = []
         if not math.isfinite(t) or (
             self._last_time is not None and t < self._last_time - self.config.max_reorder
         ):
             rejected = [(k, RejectionReason.STALE_TIMESTAMP) for k in range(len(detections))]
             self._count(rejected)
             return UpdateReport(0, rejected, 0, [], [])
-        index = list(range(len(detections)))  # original index of each detection kept
-        if len(detections) > self.config.max_detections:
-            index, rejected = self._cap(detections, robot_position)
-
-        valid: list[Detection] = []
-        seen_ids: set[str] = set()
-        cfg = self.config
-        for k in index:
-            det = detections[k]
-            reason = validate_detection(
-                det,
-                frame_id=cfg.frame_id,
-                max_range=cfg.max_range,
-                max_semi_axis=cfg.max_semi_axis,
-                reference=robot_position,
-            )
-            if reason is None and det.id:
-                if det.id in seen_ids:
-                    reason = RejectionReason.DUPLICATE_ID
-                seen_ids.add(det.id)
-            if reason is None:
-                valid.append(det)
-            else:
-                rejected.append((k, reason))
-        self._count(rejected)
-
-        # Association against predictions at t.
+        valid, rejected = self._validated(detections, robot_position)
+        result = self._associate(valid, t)
         tracks = self._tracks
-        if tracks and valid:
-            predicted = np.empty((len(tracks), 3))
-            covs = np.empty((len(tracks), 3, 3))
-            floor = (cfg.gate_floor**2) * np.eye(3)
-            for i, trk in enumerate(tracks):
-                zhat, S = trk.predicted_measurement(t)
-                predicted[i] = zhat
-                covs[i] = S + floor
-            measured = np.array([np.asarray(d.center, dtype=float) for d in valid])
-            cost = mahalanobis_cost_matrix(predicted, covs, measured)
-        else:
-            cost = np.zeros((len(tracks), len(valid)))
-        result = associate(
-            [trk.source_id for trk in tracks],
-            [int(trk.plane) for trk in tracks],
-            [d.id for d in valid],
-            [int(d.plane) for d in valid],
-            cost,
-            self._gate,
-        )
         for i, j in result.matches:
             tracks[i].update(valid[j], t)
         for i in result.unmatched_tracks:
             tracks[i].mark_missed()
-
         created: list[int] = []
         for j in result.unmatched_detections:
-            trk = Track(self._next_track_id, valid[j], t, cfg.track)
+            trk = Track(self._next_track_id, valid[j], t, self.config.track)
             self._next_track_id += 1
             self._tracks.append(trk)
             created.append(trk.track_id)
-
         deleted: list[int] = []
         alive: list[Track] = []
         for trk in self._tracks:
@@ -378,6 +330,58 @@ class MultiObstacleTracker:
         self._tracks = alive
         self._last_time = t if self._last_time is None else max(self._last_time, t)
         return UpdateReport(len(valid), rejected, len(result.matches), created, deleted)
+
+    def _validated(
+        self, detections: list[Detection], robot_position: Sequence[float] | np.ndarray | None
+    ) -> tuple[list[Detection], list[tuple[int, RejectionReason]]]:
+        """The usable detections (capped nearest first) and the rejected ones, counted."""
+        cfg = self.config
+        index = list(range(len(detections)))  # original index of each detection kept
+        rejected: list[tuple[int, RejectionReason]] = []
+        if len(detections) > cfg.max_detections:
+            index, rejected = self._cap(detections, robot_position)
+        valid: list[Detection] = []
+        seen_ids: set[str] = set()
+        for k in index:
+            det = detections[k]
+            reason = validate_detection(
+                det, frame_id=cfg.frame_id, max_range=cfg.max_range,
+                max_semi_axis=cfg.max_semi_axis, reference=robot_position,
+            )
+            if reason is None and det.id:
+                if det.id in seen_ids:
+                    reason = RejectionReason.DUPLICATE_ID
+                seen_ids.add(det.id)
+            if reason is None:
+                valid.append(det)
+            else:
+                rejected.append((k, reason))
+        self._count(rejected)
+        return valid, rejected
+
+    def _associate(self, valid: list[Detection], t: float):  # noqa: ANN202 - association result
+        """Optimal assignment of ``valid`` to the tracks predicted to ``t`` (gated)."""
+        tracks = self._tracks
+        if tracks and valid:
+            predicted = np.empty((len(tracks), 3))
+            covs = np.empty((len(tracks), 3, 3))
+            floor = (self.config.gate_floor**2) * np.eye(3)
+            for i, trk in enumerate(tracks):
+                zhat, S = trk.predicted_measurement(t)
+                predicted[i] = zhat
+                covs[i] = S + floor
+            measured = np.array([np.asarray(d.center, dtype=float) for d in valid])
+            cost = mahalanobis_cost_matrix(predicted, covs, measured)
+        else:
+            cost = np.zeros((len(tracks), len(valid)))
+        return associate(
+            [trk.source_id for trk in tracks],
+            [int(trk.plane) for trk in tracks],
+            [d.id for d in valid],
+            [int(d.plane) for d in valid],
+            cost,
+            self._gate,
+        )
 
     def _cap(
         self, detections: list[Detection], robot_position: Sequence[float] | np.ndarray | None
