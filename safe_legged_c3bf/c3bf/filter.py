@@ -55,6 +55,7 @@ from .geometry import Obstacles
 from .lie import PLANE_AXES, BarrierTerms, barrier_terms, barrier_terms_scalar
 from .models import PointKinematics, RobotModel
 from .result import FilterResult, FilterStatus
+from .solver_status import describe_osqp_status
 
 __all__ = ["SafetyFilter", "cbf_closed_form"]
 
@@ -572,22 +573,26 @@ class SafetyFilter:
             u, ok, status_val = self._solve_hard(n, Gn, lo_rows, q)
             if ok:
                 msg = "" if status_val == osqp.SolverStatus.OSQP_SOLVED else (
-                    f"OSQP status {osqp.SolverStatus(status_val).name}: feasible, "
+                    f"hard QP {describe_osqp_status(status_val)}: feasible, "
                     "optimality not certified"
                 )
                 return self._result(u, FilterStatus.ACTIVE, terms, G, c0, "osqp", t0, msg)
             if status_val not in _INFEASIBLE:
                 if status_val not in _RETRYABLE:
                     return self._failsafe(
-                        x, yaw, n, t0, f"OSQP status {status_val}", terms, G, c0
+                        x, yaw, n, t0, f"hard QP failed: {describe_osqp_status(status_val)}",
+                        terms, G, c0,
                     )
                 msg = (
-                    f"hard QP not solved to tolerance (OSQP status "
-                    f"{osqp.SolverStatus(status_val).name}): relaxed QP used"
+                    f"hard QP not solved to tolerance ({describe_osqp_status(status_val)}): "
+                    "relaxed QP used"
                 )
         u, status_val = self._solve_relaxed(n, Gn, lo_rows, q)
         if u is None:
-            return self._failsafe(x, yaw, n, t0, f"relaxed QP failed ({status_val})", terms, G, c0)
+            return self._failsafe(
+                x, yaw, n, t0, f"relaxed QP failed: {describe_osqp_status(status_val)}",
+                terms, G, c0,
+            )
         return self._result(u, FilterStatus.RELAXED, terms, G, c0, "osqp", t0, msg)
 
     def _verify(self, u, Gn, lo_rows) -> bool:
