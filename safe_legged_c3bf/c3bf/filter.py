@@ -50,6 +50,7 @@ import scipy.sparse as sp
 
 from .active_set import solve_box_qp
 from .barrier import DEFAULT_V_EPS
+from .domain import MAX_MAGNITUDE, bad_entry
 from .errors import InvalidInputError
 from .geometry import Obstacles
 from .lie import PLANE_AXES, BarrierTerms, barrier_terms, barrier_terms_scalar
@@ -211,7 +212,8 @@ class _RelaxedQP:
         return res.x[:m].copy(), int(res.info.status_val)
 
 
-def _vector(value, n: int, name: str) -> tuple[np.ndarray, list[float]]:
+def _vector(value, n: int, name: str, limit: float = math.inf):
+    """``(array, list)`` of a ``(n,)`` input, entries finite with ``|x| <= limit``."""
     try:
         a = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -221,6 +223,10 @@ def _vector(value, n: int, name: str) -> tuple[np.ndarray, list[float]]:
     lst = a.tolist()
     if not all(map(math.isfinite, lst)):
         raise InvalidInputError(f"{name} contains NaN or Inf: {lst}")
+    if limit < math.inf and not math.hypot(*lst) <= limit:
+        problem = bad_entry(name, a, limit)
+        if problem:
+            raise InvalidInputError(problem)
     return a, lst
 
 
@@ -383,15 +389,15 @@ class SafetyFilter:
         """
         t0 = time.perf_counter()
         model = self.model
-        x, xl = _vector(state, model.n_x, "state")
+        x, xl = _vector(state, model.n_x, "state", MAX_MAGNITUDE)
         u0, ul = _vector(u_ref, model.n_u, "u_ref")
         if model.needs_yaw:
             try:
                 yaw = float(yaw)
             except (TypeError, ValueError) as exc:
                 raise InvalidInputError(f"{type(model).__name__} needs yaw=<float>") from exc
-            if not math.isfinite(yaw):
-                raise InvalidInputError("yaw is NaN or Inf")
+            if not abs(yaw) <= MAX_MAGNITUDE:
+                raise InvalidInputError(bad_entry("yaw", yaw))
         else:
             yaw = None
         if u_min is None and u_max is None:
