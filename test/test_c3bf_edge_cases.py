@@ -4,6 +4,7 @@ obstacle, validation of ellipses, and the documented defaults."""
 import numpy as np
 import osqp
 import pytest
+from test_c3bf_oracle import as_float, exact_qp
 
 from safe_legged_c3bf.c3bf import (
     EllipseObstacle,
@@ -15,8 +16,11 @@ from safe_legged_c3bf.c3bf import (
     SafetyFilter,
     UnicycleHeightModel,
     UnicycleModel,
+    XZDoubleIntegratorModel,
+    c3bf_lie_derivatives,
 )
 from safe_legged_c3bf.c3bf import filter as filter_mod
+from safe_legged_c3bf.c3bf.domain import REF_RATIO_MAX
 from safe_legged_c3bf.c3bf.solver_status import OSQP_STATUS_WORDS, describe_osqp_status
 
 UH_MIN, UH_MAX = [-2.0, -4.0, -3.0], [2.0, 4.0, 3.0]
@@ -42,8 +46,8 @@ def test_filter_messages_name_the_osqp_status_in_words(code, monkeypatch):
     def fake_solve(self, *args, **kwargs):
         return ok.copy(), code
 
-    monkeypatch.setattr(filter_mod._HardQP, "solve", fake_solve)
-    monkeypatch.setattr(filter_mod._RelaxedQP, "solve", fake_solve)
+    monkeypatch.setattr(filter_mod.HardQP, "solve", fake_solve)
+    monkeypatch.setattr(filter_mod.RelaxedQP, "solve", fake_solve)
     monkeypatch.setattr(SafetyFilter, "_verify", lambda self, *a: False)
     r = flt.filter(X_UH, [1.0, 0.0, 0.0], obs)
     assert np.isfinite(r.u_safe).all()
@@ -53,7 +57,131 @@ def test_filter_messages_name_the_osqp_status_in_words(code, monkeypatch):
         assert "OSQP" in r.message, r.message
 
 
+# ---------------------------------------------------------------- extreme references
+def _holonomic_and_unicycle():
+    return [(HolonomicModel(), np.array([0.0, 0.0, 0.5, 0.0]), 0.0),
+            (UnicycleModel(0.2), np.array([0.0, 0.0, 0.0, 0.5, 0.0]), None)]
+
+
+@pytest.mark.parametrize("method", ["auto", "qp"])
+def test_huge_reference_without_obstacles_is_clipped_exactly(method):
+    """Issue #14: u_ref = [1e17, 0.5] gave [0, 0.5] (auto) or [2, 3e-14] (qp)."""
+    for model, x, yaw in _holonomic_and_unicycle():
+        flt = SafetyFilter(model, u_min=[-2, -2], u_max=[2, 2], method=method)
+        for u_ref, expected in (([1e17, 0.5], [2.0, 0.5]), ([1e300, -1e300], [2.0, -2.0]),
+                                ([-3e8, 1.5], [-2.0, 1.5])):
+            r = flt.filter(x, u_ref, Obstacles.empty(), yaw=yaw)
+            assert r.status is FilterStatus.ACTIVE, r
+            np.testing.assert_array_equal(r.u_safe, expected)
+        # A far obstacle whose constraint the clipped reference satisfies: still exact.
+        far_obs = Obstacles.vertical([[30.0, 30.0]], [0.5])
+        r = flt.filter(x, [1e17, 0.5], far_obs, yaw=yaw)
+        np.testing.assert_array_equal(r.u_safe, [2.0, 0.5])
+
+
+@pytest.mark.parametrize("method", ["auto", "qp"])
+def test_huge_reference_against_a_binding_obstacle_is_refused(method):
+    """Issue #14: 1e300 with an obstacle gave FAILSAFE 'OSQP status 9'. The clip is not the
+    optimum there (the obstacle binds), and rounding would dominate the QP: refused."""
+    for model, x, yaw in _holonomic_and_unicycle():
+        flt = SafetyFilter(model, u_min=[-2, -2], u_max=[2, 2], method=method)
+        obs = Obstacles.vertical([[1.5, 0.1]], [0.5])
+        with pytest.raises(InvalidInputError, match=r"u_ref\[0\] = 1e\+300 is beyond 1e\+03"):
+            flt.filter(x, [1e300, 0.5], obs, yaw=yaw)
+    # A non-diagonal weight: the W-projection onto the box is not the clip: refused.
+    flt = SafetyFilter(HolonomicModel(), weights=[[2.0, 1.0], [1.0, 2.0]], u_min=[-2, -2],
+                       u_max=[2, 2], method=method)
+    with pytest.raises(InvalidInputError, match="u_ref"):
+        flt.filter([0, 0, 0.5, 0], [1e17, 0.5], Obstacles.empty(), yaw=0.0)
+
+
+@pytest.mark.parametrize("method", ["auto", "qp"])
+def test_references_up_to_the_bound_give_the_exact_optimum(method):
+    """Within REF_RATIO_MAX x the input scale the answer matches exact rational arithmetic."""
+    rng = np.random.default_rng(14)
+    model = UnicycleHeightModel(0.2)
+    lo, hi = np.array(UH_MIN), np.array(UH_MAX)
+    flt = SafetyFilter(model, u_min=lo, u_max=hi, margin=0.0, method=method)
+    bound = REF_RATIO_MAX * (1 + 4.0)
+    for _ in range(30):
+        obs = Obstacles.vertical(rng.uniform([1.0, -1.0], [3.0, 1.0], (2, 2)), [0.4, 0.5])
+        d = rng.normal(size=3)
+        u_ref = 0.99 * bound * d / np.abs(d).max()
+        r = flt.filter(X_UH, u_ref, obs)
+        t = c3bf_lie_derivatives(model, X_UH, obs.center, obs.velocity, obs.radius, obs.plane)
+        u_ex = as_float(exact_qp(np.eye(3), u_ref, t.lg_h, -(t.lf_h + t.h), lo, hi))
+        if u_ex is None:
+            assert r.status is FilterStatus.RELAXED
+        else:
+            assert r.status is FilterStatus.ACTIVE
+            np.testing.assert_allclose(r.u_safe, u_ex, atol=1e-8)
+
+
+@pytest.mark.parametrize("method", ["auto", "qp"])
+def test_large_limits_and_references_are_verified_to_their_own_scale(method):
+    """Limits of 1e8 and a reference of 4e10 (within the bound): the row check of the
+    answer must allow the rounding of numbers of that size (it used to reject the exact
+    answer, and OSQP's too, and report a feasible problem as RELAXED with garbage)."""
+    model = HolonomicModel()
+    x = np.array([0.0, 0.0, 0.44432961628423495, -0.5625691508623909])
+    obs = Obstacles.vertical([[1.4079369133410473, 2.147852743556959],
+                              [0.6673931713750224, 1.4855446101490037]], [0.5, 0.5])
+    lim = 108348235.89623432
+    u_ref = np.array([-1664754989.6612976, 44362008949.58992])
+    flt = SafetyFilter(model, u_min=[-lim, -lim], u_max=[lim, lim], margin=0.0, method=method)
+    r = flt.filter(x, u_ref, obs, yaw=0.0)
+    t = c3bf_lie_derivatives(model, x, obs.center, obs.velocity, obs.radius, obs.plane,
+                             yaw=0.0)
+    u_ex = as_float(exact_qp(np.eye(2), u_ref, t.lg_h, -(t.lf_h + t.h), [-lim] * 2, [lim] * 2))
+    assert r.status is FilterStatus.ACTIVE, r.message
+    # Exact for data moved by ~eps |u_ref| (the active-set method works in u - u_ref).
+    np.testing.assert_allclose(r.u_safe, u_ex, atol=1e-12 * np.abs(u_ref).max())
+
+
+def test_osqp_iteration_limit_is_not_reported_as_the_optimum():
+    """Thin feasible slabs made OSQP stop at its iteration limit: the iterate was returned as
+    ACTIVE (off by 6e-3), or the feasible problem as RELAXED. Both now give the optimum."""
+    model = XZDoubleIntegratorModel()
+    x = np.array([-5.0, 0.1, 0.0, -0.4])
+    for centers, u_ref in (([[-5.83229367, -1.71859485], [-3.91939539, -1.58294197]],
+                            [-3.5, -3.5]),
+                           ([[-5.71708043, -1.76702856], [-0.25705832, -9.82494354]],
+                            [-3.5, 3.5])):
+        obs = Obstacles.horizontal(centers, [1.0, 1.0])
+        flt = SafetyFilter(model, gamma=0.5, weights=[0.2, 0.2], u_min=[-0.3, -0.3],
+                           u_max=[0.3, 0.3], margin=0.0, method="qp")
+        r = flt.filter(x, u_ref, obs)
+        t = c3bf_lie_derivatives(model, x, obs.center, obs.velocity, obs.radius, obs.plane)
+        u_ex = as_float(exact_qp(np.eye(2) * 0.2, u_ref, t.lg_h, -(t.lf_h + 0.5 * t.h),
+                                 [-0.3, -0.3], [0.3, 0.3]))
+        assert r.status is FilterStatus.ACTIVE, r.message
+        np.testing.assert_allclose(r.u_safe, u_ex, atol=1e-8)
+
+
+
 # ---------------------------------------------------------------- the numeric domain
+def test_states_limits_and_parameters_outside_the_domain_are_named():
+    flt = SafetyFilter(UnicycleHeightModel(0.2), u_min=UH_MIN, u_max=UH_MAX)
+    obs = Obstacles.vertical([[3.0, 0.1]], [0.5])
+    x = X_UH.copy()
+    x[3] = 2e9
+    with pytest.raises(InvalidInputError, match=r"state\[3\] = 2000000000.0 is beyond"):
+        flt.filter(x, [0, 0, 0], obs)
+    with pytest.raises(InvalidInputError, match=r"u_ref\[1\] = nan is not finite"):
+        flt.filter(X_UH, [0, np.nan, 0], obs)
+    with pytest.raises(InvalidInputError, match="finite input limits"):
+        flt.filter(X_UH, [0, 0, 0], obs, u_max=[1e10, 1, 1])
+    flt.filter(X_UH, [0, 0, 0], obs, u_max=[np.inf, 1, 1])  # open limits are fine
+    hol = SafetyFilter(HolonomicModel())
+    with pytest.raises(InvalidInputError, match="yaw = 1e"):
+        hol.filter([0, 0, 1, 0], [0, 0], obs, yaw=1e300)
+    for kw in ("brake_gain", "escape_accel", "relax_penalty", "gamma", "v_eps"):
+        with pytest.raises(InvalidInputError, match=kw):
+            SafetyFilter(HolonomicModel(), **{kw: np.nan})
+    with pytest.raises(InvalidInputError, match="weights"):
+        SafetyFilter(HolonomicModel(), weights=[1.0, 1e300])
+
+
 def test_models_validate_offset_state_yaw_and_gain():
     with pytest.raises(InvalidInputError, match="offset"):
         UnicycleModel(offset=np.nan)

@@ -300,7 +300,7 @@ def test_solver_failure_falls_back_to_brake(monkeypatch):
     def boom(*args, **kwargs):
         raise RuntimeError("solver exploded")
 
-    monkeypatch.setattr(filter_mod._HardQP, "solve", boom)
+    monkeypatch.setattr(filter_mod.HardQP, "solve", boom)
     r = flt.filter(x, [1.0, 0.0, 0.0], obs)
     assert r.status is FilterStatus.FAILSAFE and "exploded" in r.message
     np.testing.assert_allclose(r.u_safe, -2.0 * np.array([1.0, 0.5, 0.2]))
@@ -359,14 +359,14 @@ def test_unverified_osqp_solution_is_resolved_with_tighter_tolerances(monkeypatc
 
     monkeypatch.setattr(SafetyFilter, "_verify", flaky_verify)
     tightened = []
-    orig_tighten = filter_mod._HardQP.tighten
-    monkeypatch.setattr(filter_mod._HardQP, "tighten",
+    orig_tighten = filter_mod.HardQP.tighten
+    monkeypatch.setattr(filter_mod.HardQP, "tighten",
                         lambda self, f: (tightened.append(f), orig_tighten(self, f)))
     r = flt.filter(x, u_ref + np.array([2.0, 0.0, 0.0]), obs)
     assert tightened and len(calls) == 2
     assert r.status is ref.status
     np.testing.assert_allclose(r.u_safe, ref.u_safe, atol=1e-6)
-    assert flt._hard[4].solver.settings.eps_abs == filter_mod._OSQP_DEFAULTS["eps_abs"]
+    assert flt._hard[4].solver.settings.eps_abs == filter_mod.OSQP_DEFAULTS["eps_abs"]
 
 
 def test_per_call_limits_override_constructor_limits():

@@ -48,7 +48,8 @@ class FilterResult:
         active: ``(n,)`` bool, constraints binding at ``u_safe`` (for EMERGENCY: the
             obstacles the robot is inside).
         bounds_active: ``(m,)`` bool, inputs at ``u_min`` or ``u_max`` after filtering.
-        solver: ``'closed_form'``, ``'active_set'``, ``'osqp'`` or ``'none'``.
+        solver: ``'closed_form'``, ``'active_set'``, ``'osqp'``, ``'clip'`` (a reference
+            beyond ``domain.REF_RATIO_MAX`` whose clip is the exact optimum) or ``'none'``.
         solve_time: Wall-clock time of the whole ``filter`` call [s].
         message: Human-readable detail (empty when nothing noteworthy happened).
 
