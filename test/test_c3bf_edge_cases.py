@@ -9,6 +9,7 @@ from test_c3bf_oracle import as_float, exact_qp
 from safe_legged_c3bf.c3bf import (
     EllipseObstacle,
     FilterStatus,
+    HolonomicHeightModel,
     HolonomicModel,
     InvalidInputError,
     Obstacles,
@@ -21,6 +22,8 @@ from safe_legged_c3bf.c3bf import (
 )
 from safe_legged_c3bf.c3bf import filter as filter_mod
 from safe_legged_c3bf.c3bf.domain import REF_RATIO_MAX
+from safe_legged_c3bf.c3bf.inside import radial_terms
+from safe_legged_c3bf.c3bf.lie import PLANE_AXES
 from safe_legged_c3bf.c3bf.solver_status import OSQP_STATUS_WORDS, describe_osqp_status
 
 UH_MIN, UH_MAX = [-2.0, -4.0, -3.0], [2.0, 4.0, 3.0]
@@ -158,7 +161,6 @@ def test_osqp_iteration_limit_is_not_reported_as_the_optimum():
         np.testing.assert_allclose(r.u_safe, u_ex, atol=1e-8)
 
 
-
 # ---------------------------------------------------------------- the numeric domain
 def test_states_limits_and_parameters_outside_the_domain_are_named():
     flt = SafetyFilter(UnicycleHeightModel(0.2), u_min=UH_MIN, u_max=UH_MAX)
@@ -175,7 +177,7 @@ def test_states_limits_and_parameters_outside_the_domain_are_named():
     hol = SafetyFilter(HolonomicModel())
     with pytest.raises(InvalidInputError, match="yaw = 1e"):
         hol.filter([0, 0, 1, 0], [0, 0], obs, yaw=1e300)
-    for kw in ("brake_gain", "escape_accel", "relax_penalty", "gamma", "v_eps"):
+    for kw in ("brake_gain", "escape_accel", "relax_penalty", "exit_speed", "gamma", "v_eps"):
         with pytest.raises(InvalidInputError, match=kw):
             SafetyFilter(HolonomicModel(), **{kw: np.nan})
     with pytest.raises(InvalidInputError, match="weights"):
@@ -230,3 +232,152 @@ def test_obstacle_errors_name_the_obstacle_and_the_value():
     with pytest.raises(InvalidInputError, match="dt"):
         Obstacles.vertical([[0.0, 0.0]], [0.5]).advanced(np.nan)
 
+
+# ---------------------------------------------------------------- inside an obstacle
+def _inside_cases():
+    """(name, state, u_ref): a holonomic robot whose body point (0, 0) is inside a circle of
+    radius 0.5 centred at (0.3, 0) (yaw 0: body frame == odom)."""
+    return [
+        ("leaving", [0.0, 0.0, -0.5, 0.1], [0.0, 0.0]),
+        ("going deeper", [0.0, 0.0, 0.5, 0.2], [1.0, 0.0]),
+        ("at rest", [0.0, 0.0, 0.0, 0.0], [0.0, 0.0]),
+        ("at the centre", [0.3, 0.0, 0.2, 0.0], [0.0, 0.0]),
+    ]
+
+
+INSIDE = Obstacles.vertical([[0.3, 0.0], [5.0, 5.0]], [0.5, 0.5])
+
+
+@pytest.mark.parametrize("margin", [0.0, 0.05])
+def test_h_is_negative_inside_and_clearance_is_the_signed_distance(margin):
+    """Issue #14: EMERGENCY said 'inside' while h >= 0 (a robot leaving the circle)."""
+    flt = SafetyFilter(HolonomicModel(), u_min=[-2, -2], u_max=[2, 2], margin=margin)
+    for name, x, u_ref in _inside_cases():
+        r = flt.filter(x, u_ref, INSIDE, yaw=0.0)
+        assert r.status is FilterStatus.EMERGENCY, name
+        assert r.h[0] < 0.0, (name, r.h)
+        dist = np.hypot(*(INSIDE.center - x[:2]).T)
+        np.testing.assert_allclose(r.clearance, dist - 0.5, atol=1e-12)
+        assert r.active.tolist() == [True, False]
+    # Outside: clearance = distance to the TRUE inflated circle [m], on every path.
+    x = np.array([0.0, 0.0, 1.0, 0.0])
+    for obs in (Obstacles.vertical([[1.2, 0.1]], [0.5]),  # one obstacle: closed form
+                Obstacles.vertical([[1.2, 0.1], [1.4, -0.5]], [0.5, 0.3]),  # active set
+                Obstacles.vertical([[0.52, 0.0]], [0.5])):  # within the margin band
+        for method in ("auto", "qp"):
+            f = SafetyFilter(HolonomicModel(), u_min=[-2, -2], u_max=[2, 2], margin=margin,
+                             method=method)
+            r = f.filter(x, [1.0, 0.0], obs, yaw=0.0)
+            assert r.status is not FilterStatus.EMERGENCY
+            np.testing.assert_allclose(
+                r.clearance, np.hypot(*(obs.center - x[:2]).T) - obs.radius, atol=1e-12)
+
+
+def test_clearance_is_reported_with_every_status(monkeypatch):
+    model = HolonomicModel()
+    x = np.array([0.0, 0.0, 3.0, 0.0])
+    obs = Obstacles.vertical([[1.5, 0.0], [1.6, 0.5]], [0.5, 0.4])
+    expected = np.hypot(*(obs.center - x[:2]).T) - obs.radius
+    tight = SafetyFilter(model, u_min=[-0.1, -0.1], u_max=[0.1, 0.1])
+    r = tight.filter(x, [1.0, 0.0], obs, yaw=0.0)
+    assert r.status is FilterStatus.RELAXED
+    np.testing.assert_allclose(r.clearance, expected, atol=1e-12)
+    monkeypatch.setattr(filter_mod.RelaxedQP, "solve", lambda self, *a: (np.zeros(2), 9))
+    r = tight.filter(x, [1.0, 0.0], obs, yaw=0.0)
+    assert r.status is FilterStatus.FAILSAFE and "non-convex" in r.message
+    np.testing.assert_allclose(r.clearance, expected, atol=1e-12)
+
+
+def test_a_robot_leaving_a_circle_is_not_braked():
+    """Issue #14: inside and leaving, the escape action braked the outward motion."""
+    flt = SafetyFilter(HolonomicModel(), u_min=[-2, -2], u_max=[2, 2])
+    x = [0.0, 0.0, -0.5, 0.1]  # leaving the circle around (0.3, 0) at 0.49 m/s
+    for u_ref in ([0.0, 0.0], [-1.0, 0.3], [0.2, 0.0]):
+        r = flt.filter(x, u_ref, INSIDE, yaw=0.0)
+        assert r.status is FilterStatus.EMERGENCY
+        assert "leaving" in r.message and "not leaving" not in r.message
+        np.testing.assert_array_equal(r.u_safe, u_ref)  # the reference, unchanged
+    # A reference that would turn it back in is limited to "no deeper" (the exact QP).
+    u_ref = np.array([2.0, -1.0])
+    r = flt.filter(x, u_ref, INSIDE, yaw=0.0)
+    p, v = np.array([0.3, 0.0]), -np.array(x[2:])
+    e = p / np.linalg.norm(p)
+    b = e @ v
+    lf = (v @ v - b * b) / np.linalg.norm(p)
+    t = c3bf_lie_derivatives(HolonomicModel(), x, INSIDE.center[1:], INSIDE.velocity[1:],
+                             INSIDE.radius[1:] + flt.margin, INSIDE.plane[1:], yaw=0.0)
+    G = np.vstack([-e, t.lg_h])
+    rhs = np.r_[-(lf + flt.gamma * b), -(t.lf_h + flt.gamma * t.h)]
+    u_ex = as_float(exact_qp(np.eye(2), u_ref, G, rhs, [-2, -2], [2, 2]))
+    np.testing.assert_allclose(r.u_safe, u_ex, atol=1e-9)
+    assert r.constraint[0] >= -1e-9 and r.u_safe[0] < u_ref[0]
+
+
+def test_a_robot_not_leaving_brakes_and_backs_out():
+    flt = SafetyFilter(HolonomicModel(), u_min=[-2, -2], u_max=[2, 2])
+    for name, x, u_ref in _inside_cases()[1:]:
+        r = flt.filter(x, u_ref, INSIDE, yaw=0.0)
+        assert r.status is FilterStatus.EMERGENCY and "not leaving" in r.message, name
+        away = np.array(x[:2]) - [0.3, 0.0]
+        if np.linalg.norm(away) > 0:
+            assert r.u_safe @ away > 0, name  # accelerates away from the centre
+
+
+def test_exit_speed_keeps_a_slow_leaver_leaving():
+    slow = [0.0, 0.0, -0.01, 0.0]  # leaving at 1 cm/s
+    r0 = SafetyFilter(HolonomicModel()).filter(slow, [0.0, 0.0], INSIDE, yaw=0.0)
+    np.testing.assert_array_equal(r0.u_safe, [0.0, 0.0])
+    r1 = SafetyFilter(HolonomicModel(), exit_speed=0.2).filter(slow, [0.0, 0.0], INSIDE,
+                                                               yaw=0.0)
+    assert r1.status is FilterStatus.EMERGENCY and r1.u_safe[0] < -0.1  # pushed outwards
+
+
+RADIAL_MODELS = [
+    UnicycleModel(offset=0.0), UnicycleModel(offset=0.3), XZDoubleIntegratorModel(),
+    HolonomicModel(), UnicycleHeightModel(offset=0.25), HolonomicHeightModel(),
+]
+
+
+@pytest.mark.parametrize("model", RADIAL_MODELS, ids=repr)
+def test_radial_speed_derivatives_match_finite_differences(model):
+    """Lf b, Lg b of the no-deeper constraint (inside.py) against central differences of
+    b = <p_rel, v_rel> / ||p_rel|| along f (with the obstacle's motion) and along g_j."""
+    rng = np.random.default_rng(21)
+    n = 400
+    ranges = {"theta": (-np.pi, np.pi), "v": (-1.5, 2.0), "omega": (-2.0, 2.0),
+              "z": (0.1, 0.6), "vz": (-1.0, 1.0), "vx": (-2.0, 2.0), "vy": (-2.0, 2.0)}
+    lo = np.array([ranges.get(s, (-3, 3))[0] for s in model.state_names])
+    hi = np.array([ranges.get(s, (-3, 3))[1] for s in model.state_names])
+    X = rng.uniform(lo, hi, (n, model.n_x))
+    yaw = rng.uniform(-np.pi, np.pi, n) if model.needs_yaw else None
+    planes = sorted(int(p) for p in model.planes)
+    plane = np.array(planes)[rng.integers(0, len(planes), n)]
+    axes = PLANE_AXES[plane]
+    kin = model.point_kinematics(X, yaw)
+    P = np.take_along_axis(kin.position, axes, -1)
+    ang = rng.uniform(-np.pi, np.pi, n)
+    c = P + rng.uniform(0.05, 0.5, n)[:, None] * np.c_[np.cos(ang), np.sin(ang)]
+    cv = rng.uniform(-1, 1, (n, 2)) * rng.integers(0, 2, (n, 1))
+
+    def b_of(Xs, cs):
+        k = model.point_kinematics(Xs, yaw)
+        p = cs - np.take_along_axis(k.position, axes, -1)
+        v = cv - np.take_along_axis(k.velocity, axes, -1)
+        return (p * v).sum(-1) / np.linalg.norm(p, axis=-1)
+
+    b0 = b_of(X, c)
+
+    def fd(direction, rate, step=1e-5):
+        def bb(k):
+            return b_of(X + k * step * direction, c + k * step * rate)
+        return (-bb(2) + 8 * bb(1) - 8 * bb(-1) + bb(-2)) / (12 * step)
+
+    lf_fd = fd(model.f(X, yaw), cv)
+    g = model.g(X, yaw)
+    lg_fd = np.stack([fd(g[..., j], np.zeros_like(cv)) for j in range(model.n_u)], -1)
+    for i in range(n):
+        ki = model.point_kinematics(X[i], None if yaw is None else yaw[i])
+        t = radial_terms(ki, c[i:i + 1], cv[i:i + 1], plane[i:i + 1])
+        assert t.speed[0] == pytest.approx(b0[i], rel=1e-12, abs=1e-12)
+        np.testing.assert_allclose(t.lf[0], lf_fd[i], rtol=1e-6, atol=1e-6)
+        np.testing.assert_allclose(t.lg[0], lg_fd[i], rtol=1e-6, atol=1e-7)

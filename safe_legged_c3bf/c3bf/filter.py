@@ -33,8 +33,9 @@ Solution strategy (every path returns the exact optimum of that problem, or says
 5. Infeasible (some constraint cannot hold within the limits: a Farkas certificate, or OSQP
    reports primal infeasibility): a relaxed QP with one non-negative slack ``d_i`` per constraint,
    ``a_i u + d_i >= b_i``, cost ``+ rho (sum d_i^2 + sum d_i)``: ``RELAXED``.
-6. Body point inside an inflated circle (``||p_rel|| <= r``): ``EMERGENCY`` action,
-   brake and accelerate away from the obstacle centre(s).
+6. Body point inside an inflated circle (``||p_rel||^2 - r^2 < 1e-9 r^2``): ``EMERGENCY``.
+   Leaving every such circle: steps 1-5 with their cone rows replaced by the no-deeper rows
+   of the radial speed (``inside``); otherwise brake and accelerate away from the centres.
 7. Solver failure or non-finite intermediate numbers: ``FAILSAFE`` brake input.
 
 Inputs outside the numeric domain (NaN/Inf, ``|x| > 1e9``, wrong shapes; see ``domain``)
@@ -60,7 +61,8 @@ from .domain import REF_RATIO_MAX, checked_scalar
 from .errors import InvalidInputError
 from .filter_inputs import FLOAT_MAX, Bounds, check_bounds, check_weights, check_yaw, vector
 from .geometry import Obstacles
-from .lie import PLANE_AXES, BarrierTerms, _barrier_terms, barrier_terms_scalar
+from .inside import INSIDE_REL_CLEARANCE, escape_input, radial_terms, signed_h
+from .lie import _barrier_terms, barrier_terms_scalar
 from .models import PointKinematics, RobotModel
 from .osqp_qp import INFEASIBLE, OSQP_DEFAULTS, OSQP_INF, RETRYABLE, HardQP, RelaxedQP
 from .result import FilterResult, FilterStatus
@@ -68,7 +70,6 @@ from .solver_status import describe_osqp_status
 
 __all__ = ["SafetyFilter", "cbf_closed_form"]
 
-_EMERGENCY_REL_CLEARANCE = 1e-9  # ||p||^2 - r^2 <= 1e-9 r^2  =>  emergency
 _ROW_ZERO = 1e-12  # ||Lg h|| below this: the constraint does not depend on u
 _FEAS_TOL = 1e-9  # accepted violation of a unit-norm row [input units], times (1 + |u|)
 _ROUND_TOL = 1e-11  # plus this times ||u_ref|| (rounding of u - u_ref, see active_set)
@@ -81,7 +82,17 @@ class _Terms(NamedTuple):
     h: np.ndarray
     lf_h: np.ndarray
     lg_h: np.ndarray
-    clearance: np.ndarray
+    clearance: np.ndarray  # ||p_rel||^2 - r^2 [m^2] for the radius r the row uses
+    gap: np.ndarray  # ||p_rel|| - r_true [m] (FilterResult.clearance)
+
+
+def _gap(clearance, radius, obs: Obstacles) -> np.ndarray:
+    """Signed distance [m] from the body point to each true inflated circle (< 0 inside).
+
+    NaN where rounding makes ``||p||^2`` negative (body point at a centre): such a row is
+    inside its circle, and ``_inside`` recomputes its gap with a clamp.
+    """
+    return np.sqrt(clearance + radius * radius) - obs.radius
 
 
 class _Rows(NamedTuple):
@@ -126,6 +137,8 @@ class SafetyFilter:
             eigenvalue of ``W``.
         brake_gain: Velocity damping gain [1/s] of the EMERGENCY and FAILSAFE inputs.
         escape_accel: Acceleration [m/s^2] away from the obstacle centre in EMERGENCY.
+        exit_speed: Radial speed [m/s] a robot inside a circle and leaving it is kept at
+            (at least, asymptotically): 0 only forbids going deeper (see ``inside``).
         osqp_settings: Overrides of the OSQP settings (see ``OSQP_DEFAULTS``).
 
     Safety margin: the collision cone lets the body point graze the circle along a tangent
@@ -155,6 +168,7 @@ class SafetyFilter:
         relax_penalty: float = 1e2,
         brake_gain: float = 2.0,
         escape_accel: float = 1.0,
+        exit_speed: float = 0.0,
         osqp_settings: dict | None = None,
     ):
         if not isinstance(model, RobotModel):
@@ -181,6 +195,7 @@ class SafetyFilter:
         self._rho = relax_penalty * float(np.linalg.eigvalsh(w).max())
         self.brake_gain = checked_scalar("brake_gain", brake_gain, 0.0)
         self.escape_accel = checked_scalar("escape_accel", escape_accel, 0.0)
+        self.exit_speed = checked_scalar("exit_speed", exit_speed, 0.0)
         self._osqp_settings = {**OSQP_DEFAULTS, **(osqp_settings or {})}
         # The relaxed QP is a fallback whose answer is a compromise anyway: looser tolerances
         # (still polished) keep its worst-case iteration count low.
@@ -268,12 +283,12 @@ class SafetyFilter:
     # ------------------------------------------------------------------ internals
     def _filter_one(self, kin, u0, ul, obs: Obstacles, t0) -> FilterResult | None:
         """Scalar fast path for one obstacle: INACTIVE or exact closed form, else None."""
-        (c,), (cv,), (r,), (pl,) = obs.as_lists
-        r += self.margin
+        (c,), (cv,), (r0,), (pl,) = obs.as_lists
+        r = r0 + self.margin
         h, lf, lg, clearance = barrier_terms_scalar(
             kin, c[0], c[1], cv[0], cv[1], r, pl, self.v_eps
         )
-        if not clearance > _EMERGENCY_REL_CLEARANCE * r * r:
+        if not clearance > INSIDE_REL_CLEARANCE * r * r:
             return None  # inside the margin band / emergency (or NaN): general path
         c0 = lf + self.gamma * h
         psi = c0 + sum(map(mul, lg, ul))
@@ -299,7 +314,7 @@ class SafetyFilter:
         active = status is FilterStatus.ACTIVE and con * con <= _ACTIVE_TOL**2 * max(
             sum(map(mul, lg, lg)), 1.0
         )
-        vals = np.array([h, con, 0.0 if con >= 0.0 else -con])
+        vals = np.array([h, con, 0.0 if con >= 0.0 else -con, math.sqrt(clearance + r * r) - r0])
         flags = np.array([active, *map(or_, map(le, ulist, lo_b), map(ge, ulist, hi_b))])
         return FilterResult(
             u_safe=u,
@@ -311,10 +326,11 @@ class SafetyFilter:
             bounds_active=flags[1:],
             solver=solver,
             solve_time=time.perf_counter() - t0,
+            clearance=vals[3:4],
         )
 
     def _terms(self, kin, obs: Obstacles, radius) -> _Terms:
-        """h, Lf h, Lg h and clearance of every obstacle (``kin`` as tuples).
+        """h, Lf h, Lg h and clearances of every obstacle (``kin`` as tuples).
 
         Up to ``_SCALAR_TERMS_MAX`` obstacles the scalar formulas per obstacle
         (``barrier_terms_scalar``, tested against ``barrier_terms``) cost fewer operations
@@ -331,29 +347,29 @@ class SafetyFilter:
                 )
             ]
             h, lf, lg, clearance = zip(*rows, strict=True)
-            return _Terms(np.array(h), np.array(lf), np.array(lg), np.array(clearance))
+            cl = np.array(clearance)
+            return _Terms(np.array(h), np.array(lf), np.array(lg), cl, _gap(cl, radius, obs))
         kin = PointKinematics(*(np.array(k, dtype=float) for k in kin))
         t = _barrier_terms(kin, obs.center, obs.velocity, radius, obs.plane, self.v_eps)
-        return _Terms(t.h, t.lf_h, t.lg_h.reshape(n, self.model.n_u), t.clearance)
+        lg = t.lg_h.reshape(n, self.model.n_u)
+        return _Terms(t.h, t.lf_h, lg, t.clearance, _gap(t.clearance, radius, obs))
 
     def _filter(self, x, u0, ul, kin, obs: Obstacles, yaw, t0) -> FilterResult:
         """Barrier terms of every obstacle, then the QP (or the inside-a-circle handling)."""
         radius = obs.radius + self.margin
         terms = self._terms(kin, obs, radius)
-        inside = terms.clearance <= _EMERGENCY_REL_CLEARANCE * radius * radius
+        inside = terms.clearance < INSIDE_REL_CLEARANCE * radius * radius
         if self.margin > 0.0 and inside.any():
             # Inside r + margin: use the exact barrier of the true radius r for those rows.
             radius = np.where(inside, obs.radius, radius)
             terms = self._terms(kin, obs, radius)
-            inside = terms.clearance <= _EMERGENCY_REL_CLEARANCE * radius * radius
+            inside = terms.clearance < INSIDE_REL_CLEARANCE * radius * radius
         G = terms.lg_h
         c0 = terms.lf_h + self.gamma * terms.h  # constraint: G u + c0 >= 0
         if not (np.isfinite(c0).all() and np.isfinite(G).all()):
             return self._failsafe(x, yaw, len(obs), t0, "non-finite barrier terms")
         if inside.any():
-            kin = PointKinematics(*(np.array(k, dtype=float) for k in kin))
-            full = _barrier_terms(kin, obs.center, obs.velocity, radius, obs.plane, self.v_eps)
-            return self._emergency(x, yaw, kin, full, obs.plane, inside, c0, t0)
+            return self._inside(x, u0, ul, yaw, kin, obs, radius, terms, inside, t0)
         return self._solve(x, u0, ul, yaw, terms, G, c0, t0)
 
     def _solve(self, x, u0, ul, yaw, terms: _Terms, G, c0, t0) -> FilterResult:
@@ -435,6 +451,47 @@ class SafetyFilter:
                 x, yaw, n, t0, f"relaxed QP failed: {describe_osqp_status(st)}", terms, G, c0
             )
         return self._result(u, FilterStatus.RELAXED, terms, G, c0, "osqp", t0, msg)
+
+    def _inside(self, x, u0, ul, yaw, kin, obs: Obstacles, radius, terms: _Terms, inside, t0):
+        """Body point inside >= 1 inflated circle: EMERGENCY (see ``inside``).
+
+        Leaving every such circle: the QP with their radial no-deeper rows in place of their
+        cone rows. Otherwise: brake and back out of them (the escape input).
+        """
+        kin = PointKinematics(*(np.array(k, dtype=float) for k in kin))
+        idx = np.flatnonzero(inside)
+        rad = radial_terms(kin, obs.center[idx], obs.velocity[idx], obs.plane[idx])
+        G = terms.lg_h.copy()
+        c0 = terms.lf_h + self.gamma * terms.h
+        G[idx] = rad.lg
+        c0[idx] = rad.lf + self.gamma * (rad.speed - self.exit_speed)
+        h, gap = terms.h.copy(), terms.gap.copy()
+        h[idx] = signed_h(h[idx], terms.clearance[idx], radius[idx], self.gamma)
+        gap[idx] = np.sqrt((rad.p_rel * rad.p_rel).sum(-1)) - obs.radius[idx]
+        terms = terms._replace(h=h, gap=gap)
+        names = idx.tolist()
+        if (rad.speed > 0.0).all():
+            res = self._solve(x, u0, ul, yaw, terms, G, c0, t0)
+            if res.status is not FilterStatus.FAILSAFE:
+                speeds = ", ".join(f"{s:.3g}" for s in rad.speed.tolist())
+                res.message = (
+                    f"inside the inflated radius of obstacle(s) {names} and leaving (radial "
+                    f"speed {speeds} m/s): the reference is kept unless it would go deeper"
+                    + (f"; {res.message}" if res.message else "")
+                )
+                res.status, res.active = FilterStatus.EMERGENCY, inside.copy()
+                return res
+        brake_u = self.model.brake_input(x, yaw, self.brake_gain)
+        u = escape_input(
+            kin, rad.p_rel, obs.plane[idx], brake_u, self.brake_gain, self.escape_accel
+        )
+        if not np.isfinite(u).all():
+            u = self._brake(x, yaw)
+        u = np.clip(u, self._cur.lo, self._cur.hi)
+        msg = f"inside the inflated radius of obstacle(s) {names}, not leaving: brake, back out"
+        res = self._result(u, FilterStatus.EMERGENCY, terms, G, c0, "none", t0, msg)
+        res.active = inside.copy()
+        return res
 
     def _far_reference(self, u0, terms: _Terms, G, c0, t0) -> FilterResult:
         """Far ``u_ref`` (beyond ``REF_RATIO_MAX`` x the input scale), not itself admissible.
@@ -528,6 +585,7 @@ class SafetyFilter:
             solver=solver,
             solve_time=time.perf_counter() - t0,
             message=message,
+            clearance=terms.gap,
         )
 
     def _brake(self, x, yaw) -> np.ndarray:
@@ -539,10 +597,11 @@ class SafetyFilter:
         u = self._brake(x, yaw)
         u = np.where(np.isfinite(u), u, np.clip(0.0, self._cur.lo, self._cur.hi))
         if terms is None or G is None or c0 is None:
-            h = con = np.zeros(n)
+            h = con = gap = np.zeros(n)
         else:
             h = np.nan_to_num(terms.h)
             con = np.nan_to_num(c0 + G @ u)
+            gap = np.nan_to_num(terms.gap)
         return FilterResult(
             u_safe=u,
             status=FilterStatus.FAILSAFE,
@@ -554,44 +613,5 @@ class SafetyFilter:
             solver="none",
             solve_time=time.perf_counter() - t0,
             message=message,
-        )
-
-    def _emergency(self, x, yaw, kin, terms: BarrierTerms, plane, inside, c0, t0) -> FilterResult:
-        """Brake and accelerate the body point away from the centres it is inside."""
-        G = terms.lg_h
-        plane_axes = PLANE_AXES[plane[inside]]
-        away_2d = -terms.p_rel[inside]  # body point minus obstacle centre, in-plane
-        dist = np.linalg.norm(away_2d, axis=1)
-        v3 = kin.velocity
-        for i in np.flatnonzero(dist < 1e-9):  # exactly at the centre: back off along -V
-            back = -v3[plane_axes[i]]
-            nb = np.linalg.norm(back)
-            away_2d[i] = back / nb if nb > 1e-9 else np.array([-1.0, 0.0])
-            dist[i] = 1.0
-        away = np.zeros(3)
-        np.add.at(away, plane_axes, away_2d / dist[:, None])
-        na = np.linalg.norm(away)
-        if na > 1e-12:
-            away /= na
-        a_des = -self.brake_gain * v3 + self.escape_accel * away
-        B = kin.accel_input
-        B_pinv = np.linalg.pinv(B)
-        u = B_pinv @ (a_des - kin.accel_drift)
-        null = np.eye(B.shape[1]) - B_pinv @ B
-        u = u + null @ np.asarray(self.model.brake_input(x, yaw, self.brake_gain), dtype=float)
-        if not np.isfinite(u).all():
-            u = self._brake(x, yaw)
-        u = np.clip(u, self._cur.lo, self._cur.hi)
-        con = np.nan_to_num(c0 + G @ u)
-        return FilterResult(
-            u_safe=u,
-            status=FilterStatus.EMERGENCY,
-            h=np.nan_to_num(terms.h),
-            constraint=con,
-            slack=np.maximum(-con, 0.0),
-            active=inside.copy(),
-            bounds_active=(u <= self._cur.lo) | (u >= self._cur.hi),
-            solver="none",
-            solve_time=time.perf_counter() - t0,
-            message=f"inside the inflated radius of obstacle(s) {np.flatnonzero(inside).tolist()}",
+            clearance=gap,
         )
