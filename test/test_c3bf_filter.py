@@ -300,18 +300,25 @@ def test_solver_failure_falls_back_to_brake(monkeypatch):
     def boom(*args, **kwargs):
         raise RuntimeError("solver exploded")
 
-    monkeypatch.setattr(filter_mod._HardQP, "solve", boom)
+    monkeypatch.setattr(filter_mod.HardQP, "solve", boom)
     r = flt.filter(x, [1.0, 0.0, 0.0], obs)
     assert r.status is FilterStatus.FAILSAFE and "exploded" in r.message
     np.testing.assert_allclose(r.u_safe, -2.0 * np.array([1.0, 0.5, 0.2]))
-    # Absurd but finite numbers: never raise, never NaN.
-    r2 = flt.filter([1e300, -1e300, 0, 1e300, 0, 0, 0], [1e300, 0, 0], obs)
-    assert np.isfinite(r2.u_safe).all()
+    # Absurd numbers beyond the domain (|x| <= 1e9): a clear error naming the entry.
+    with pytest.raises(InvalidInputError, match=r"state\[0\] = 1e\+300 is beyond"):
+        flt.filter([1e300, -1e300, 0, 1e300, 0, 0, 0], [1e300, 0, 0], obs)
     unbounded = SafetyFilter(model)
     for state in ([0, 0, 0, 1e300, 0, 0.3, 0], [0, 0, 0, 1e200, 1e200, 0.3, 1e200],
                   [1e308, 1e308, 0, -1e308, 0, 0, 0]):
+        with pytest.raises(InvalidInputError, match="state"):
+            unbounded.filter(state, [1.0, 0.0, 0.0], obs)
+    with pytest.raises(InvalidInputError, match="velocity"):
+        Obstacles.vertical([[3.0, 0.1]], [0.5], [[1e300, 0.0]])
+    # At the edge of the domain: finite, never NaN.
+    for state in ([0, 0, 0, 1e9, 0, 0.3, 0], [0, 0, 0, 1e9, 1e9, 0.3, 1e9],
+                  [1e9, 1e9, 0, -1e9, 0, 0, 0]):
         for o in (obs, Obstacles.vertical([[3.0, 0.1]], [0.5]), Obstacles.vertical([[3.0, 0.1]],
-                  [0.5], [[1e300, 0.0]])):
+                  [0.5], [[1e9, 0.0]])):
             r3 = unbounded.filter(state, [1.0, 0.0, 0.0], o)
             assert np.isfinite(r3.u_safe).all(), (state, r3)
 
@@ -352,14 +359,14 @@ def test_unverified_osqp_solution_is_resolved_with_tighter_tolerances(monkeypatc
 
     monkeypatch.setattr(SafetyFilter, "_verify", flaky_verify)
     tightened = []
-    orig_tighten = filter_mod._HardQP.tighten
-    monkeypatch.setattr(filter_mod._HardQP, "tighten",
+    orig_tighten = filter_mod.HardQP.tighten
+    monkeypatch.setattr(filter_mod.HardQP, "tighten",
                         lambda self, f: (tightened.append(f), orig_tighten(self, f)))
     r = flt.filter(x, u_ref + np.array([2.0, 0.0, 0.0]), obs)
     assert tightened and len(calls) == 2
     assert r.status is ref.status
     np.testing.assert_allclose(r.u_safe, ref.u_safe, atol=1e-6)
-    assert flt._hard[4].solver.settings.eps_abs == filter_mod._OSQP_DEFAULTS["eps_abs"]
+    assert flt._hard[4].solver.settings.eps_abs == filter_mod.OSQP_DEFAULTS["eps_abs"]
 
 
 def test_per_call_limits_override_constructor_limits():

@@ -40,6 +40,12 @@ Partial derivatives (``dn/dv = k(rho) v``, ``k = 1/rho`` above ``eps``,
     dh/dv = p + s * k * v
 
 All functions are vectorised over leading dimensions (last axis = the 2 in-plane coordinates).
+Accuracy: a few ulps of the terms' magnitudes (``|p| |v|``, ``n_eps s``); for vectors below
+~1e-154 (where ``||p||^2``, ``||v||^2`` are subnormal) an absolute error up to ~1e-161 times
+the other vector's norm as well.
+The public ones validate their inputs (finite, ``|x| <= domain.MAX_DERIVED``, radius > 0,
+``v_eps`` in ``[0, 1e9]``) and raise :class:`~.errors.InvalidInputError` naming the bad entry;
+``barrier_terms`` and the filter call the unchecked ``_gradient``.
 """
 
 from __future__ import annotations
@@ -47,6 +53,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from .domain import MAX_DERIVED, checked, checked_scalar
 
 __all__ = [
     "DEFAULT_V_EPS",
@@ -64,7 +72,7 @@ def _speed_terms(vv, v_eps):
     """``(n_eps, k)`` from ``vv = ||v||^2``: regularised speed and ``dn/dv = k v``."""
     rho = np.sqrt(vv)
     if v_eps > 0.0:
-        u = vv / (v_eps * v_eps)  # t^2
+        u = np.minimum(vv / (v_eps * v_eps), 1.0)  # t^2 (capped: the blend is unused above)
         small = u < 1.0
         n = np.where(small, v_eps * u * (1.875 + u * (-1.25 + 0.375 * u)), rho)
         k_small = (3.75 + u * (-5.0 + 2.25 * u)) / v_eps
@@ -75,9 +83,17 @@ def _speed_terms(vv, v_eps):
     return n, k
 
 
+def _checked(p_rel, v_rel, radius, v_eps):
+    """Validated float arrays ``(p, v, r)`` and ``v_eps`` of the public functions."""
+    p = checked("p_rel", p_rel, MAX_DERIVED) if p_rel is not None else None
+    v = checked("v_rel", v_rel, MAX_DERIVED)
+    r = checked("radius", radius, MAX_DERIVED, positive=True) if radius is not None else None
+    return p, v, r, checked_scalar("v_eps", v_eps, 0.0)
+
+
 def regularized_speed(v_rel, v_eps: float = DEFAULT_V_EPS):
     """Return ``n_eps(v)`` over the last axis: ``||v||`` above ``eps``, smooth blend below."""
-    v = np.asarray(v_rel, dtype=float)
+    _, v, _, v_eps = _checked(None, v_rel, None, v_eps)
     return _speed_terms((v * v).sum(-1), v_eps)[0]
 
 
@@ -96,11 +112,9 @@ def c3bf_value(p_rel, v_rel, radius, v_eps: float = DEFAULT_V_EPS):
         emergency and never uses it as a constraint.
 
     """
-    p = np.asarray(p_rel, dtype=float)
-    v = np.asarray(v_rel, dtype=float)
-    r = np.asarray(radius, dtype=float)
+    p, v, r, v_eps = _checked(p_rel, v_rel, radius, v_eps)
     s = np.sqrt(np.maximum((p * p).sum(-1) - r * r, 0.0))
-    return (p * v).sum(-1) + regularized_speed(v, v_eps) * s
+    return (p * v).sum(-1) + _speed_terms((v * v).sum(-1), v_eps)[0] * s
 
 
 def c3bf_gradient(p_rel, v_rel, radius, v_eps: float = DEFAULT_V_EPS, s_min: float = 1e-12):
@@ -112,16 +126,21 @@ def c3bf_gradient(p_rel, v_rel, radius, v_eps: float = DEFAULT_V_EPS, s_min: flo
         radius: ``(...)`` inflated radius [m].
         v_eps: Relative-speed regularisation [m/s].
         s_min: Lower clamp of ``s = sqrt(||p||^2 - r^2)`` [m] in the ``p / s`` term, so the
-            gradient stays finite (but huge) on or inside the circle.
+            gradient stays finite (but huge) on or inside the circle; in ``[1e-12, 1]``.
+            Where ``s < s_min`` the returned ``dh/dp`` is therefore not the derivative.
 
     Returns:
         ``h`` ``(...)`` [m^2/s], ``dh/dp`` ``(..., 2)`` [m/s], ``dh/dv`` ``(..., 2)`` [m] and
         ``s`` ``(...)`` [m] (0 where ``||p|| <= r``).
 
     """
-    p = np.asarray(p_rel, dtype=float)
-    v = np.asarray(v_rel, dtype=float)
-    r = np.asarray(radius, dtype=float)
+    p, v, r, v_eps = _checked(p_rel, v_rel, radius, v_eps)
+    s_min = checked_scalar("s_min", s_min, 1e-12, 1.0)
+    return _gradient(p, v, r, v_eps, s_min)
+
+
+def _gradient(p, v, r, v_eps, s_min=1e-12):
+    """Unchecked :func:`c3bf_gradient` on float arrays (for ``barrier_terms``, the filter)."""
     s = np.sqrt(np.maximum((p * p).sum(-1) - r * r, 0.0))
     nv, k = _speed_terms((v * v).sum(-1), v_eps)
     h = (p * v).sum(-1) + nv * s

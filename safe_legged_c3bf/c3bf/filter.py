@@ -27,14 +27,21 @@ Solution strategy (every path returns the exact optimum of that problem, or says
    ``u``, ``Ax``) and warm started. Rows that cannot bind inside the input box are
    disabled. The solution is polished and verified; if a row is still violated beyond 1e-9
    (scaled units) it is re-solved with tighter tolerances.
+   If OSQP stops without converging (e.g. a thin feasible slab) the exact active-set method
+   answers before anything is relaxed. OSQP answers are accurate to its tolerances, which
+   are relative to ``|q| = |W u_ref|``; the closed form and active-set answers to rounding.
 5. Infeasible (some constraint cannot hold within the limits: a Farkas certificate, or OSQP
    reports primal infeasibility): a relaxed QP with one non-negative slack ``d_i`` per constraint,
    ``a_i u + d_i >= b_i``, cost ``+ rho (sum d_i^2 + sum d_i)``: ``RELAXED``.
-6. Body point inside an inflated circle (``||p_rel|| <= r``): ``EMERGENCY`` action,
-   brake and accelerate away from the obstacle centre(s).
+6. Body point inside an inflated circle (``||p_rel||^2 - r^2 < 1e-9 r^2``): ``EMERGENCY``.
+   Leaving every such circle: steps 1-5 with their cone rows replaced by the no-deeper rows
+   of the radial speed (``inside``); otherwise brake and accelerate away from the centres.
 7. Solver failure or non-finite intermediate numbers: ``FAILSAFE`` brake input.
 
-NaN/Inf or wrongly shaped inputs raise :class:`~.errors.InvalidInputError` before any work.
+Inputs outside the numeric domain (NaN/Inf, ``|x| > 1e9``, wrong shapes; see ``domain``)
+raise :class:`~.errors.InvalidInputError` naming the entry, before any work. A reference
+beyond ``domain.REF_RATIO_MAX`` x the input scale is answered only where the answer is exact
+(its clip), else refused the same way.
 """
 
 from __future__ import annotations
@@ -46,182 +53,28 @@ from typing import Literal, NamedTuple
 
 import numpy as np
 import osqp
-import scipy.sparse as sp
 
 from .active_set import solve_box_qp
 from .barrier import DEFAULT_V_EPS
+from .closed_form import cbf_closed_form
+from .domain import REF_RATIO_MAX, checked_scalar
 from .errors import InvalidInputError
+from .filter_inputs import FLOAT_MAX, Bounds, check_bounds, check_weights, check_yaw, vector
 from .geometry import Obstacles
-from .lie import PLANE_AXES, BarrierTerms, barrier_terms, barrier_terms_scalar
+from .inside import INSIDE_REL_CLEARANCE, escape_input, radial_terms, signed_h
+from .lie import _barrier_terms, barrier_terms_scalar
 from .models import PointKinematics, RobotModel
+from .osqp_qp import INFEASIBLE, OSQP_DEFAULTS, OSQP_INF, RETRYABLE, HardQP, RelaxedQP
 from .result import FilterResult, FilterStatus
+from .solver_status import describe_osqp_status
 
 __all__ = ["SafetyFilter", "cbf_closed_form"]
 
-_OSQP_INF = 1e30
-_EMERGENCY_REL_CLEARANCE = 1e-9  # ||p||^2 - r^2 <= 1e-9 r^2  =>  emergency
 _ROW_ZERO = 1e-12  # ||Lg h|| below this: the constraint does not depend on u
-_FEAS_TOL = 1e-9  # accepted violation of a unit-norm row [input units]
+_FEAS_TOL = 1e-9  # accepted violation of a unit-norm row [input units], times (1 + |u|)
+_ROUND_TOL = 1e-11  # plus this times ||u_ref|| (rounding of u - u_ref, see active_set)
 _ACTIVE_TOL = 1e-7  # scaled constraint value below which a row counts as binding
 _SCALAR_TERMS_MAX = 16  # obstacles up to which barrier terms are computed per obstacle
-
-_INFEASIBLE = (
-    osqp.SolverStatus.OSQP_PRIMAL_INFEASIBLE,
-    osqp.SolverStatus.OSQP_PRIMAL_INFEASIBLE_INACCURATE,
-)
-_RETRYABLE = (
-    osqp.SolverStatus.OSQP_SOLVED,
-    osqp.SolverStatus.OSQP_SOLVED_INACCURATE,
-    osqp.SolverStatus.OSQP_MAX_ITER_REACHED,
-)
-
-_OSQP_DEFAULTS = {
-    "verbose": False,
-    "eps_abs": 1e-7,
-    "eps_rel": 1e-7,
-    "eps_prim_inf": 1e-7,
-    "eps_dual_inf": 1e-7,
-    "polishing": True,
-    "polish_refine_iter": 5,
-    "max_iter": 4000,
-    "warm_starting": True,
-    "check_termination": 10,
-}
-
-
-def cbf_closed_form(lg_h, lf_h, h, u_ref, gamma: float = 1.0, w_inv=None) -> np.ndarray:
-    """Closed-form minimiser of ``(u-u_ref)^T W (u-u_ref)`` s.t. ``Lf h + Lg h u + gamma h >= 0``.
-
-    The paper's KKT solution generalised to a weight ``W`` (input bounds are ignored)::
-
-        psi = Lf h + Lg h u_ref + gamma h
-        u   = u_ref                                     if psi >= 0
-        u   = u_ref - W^-1 Lg h^T psi / (Lg h W^-1 Lg h^T)   otherwise
-
-    Args:
-        lg_h: ``(m,)`` ``Lg h``.
-        lf_h: ``Lf h`` (scalar).
-        h: Barrier value (scalar).
-        u_ref: ``(m,)`` reference input.
-        gamma: Class-K gain ``gamma`` [1/s].
-        w_inv: ``(m, m)`` inverse weight ``W^-1`` (identity if None).
-
-    Returns:
-        ``(m,)`` safe input. If ``Lg h = 0`` the constraint cannot be influenced and ``u_ref``
-        is returned.
-
-    """
-    a = np.asarray(lg_h, dtype=float)
-    u0 = np.asarray(u_ref, dtype=float)
-    psi = float(lf_h + a @ u0 + gamma * h)
-    if psi >= 0.0:
-        return u0.copy()
-    wa = a if w_inv is None else np.asarray(w_inv, dtype=float) @ a
-    den = float(a @ wa)
-    if den <= 0.0:
-        return u0.copy()
-    return u0 - wa * (psi / den)
-
-
-def _csc(data, indices, indptr, shape):
-    """CSC matrix that keeps explicit entries (never drops zeros)."""
-    return sp.csc_matrix(
-        (np.asarray(data, float), np.asarray(indices, np.int64), np.asarray(indptr, np.int64)),
-        shape=shape,
-    )
-
-
-class _HardQP:
-    """``min 1/2 u'Wu + q'u`` s.t. ``l <= [G; I] u <= u`` with ``n`` rows of ``G``."""
-
-    def __init__(self, n: int, m: int, w: np.ndarray, settings: dict):
-        self.n, self.m = n, m
-        # P: full upper triangle of W, column-major (CSC of triu).
-        p_rows = [i for j in range(m) for i in range(j + 1)]
-        p_ptr = np.r_[0, np.cumsum(np.arange(1, m + 1))]
-        p_data = np.array([w[i, j] for j in range(m) for i in range(j + 1)])
-        P = _csc(p_data, p_rows, p_ptr, (m, m))
-        # A = [G; I]: column j holds rows 0..n-1 then row n+j.
-        a_rows = np.concatenate([np.r_[np.arange(n), n + j] for j in range(m)])
-        a_ptr = np.arange(m + 1) * (n + 1)
-        self.ax = np.ones((m, n + 1))
-        A = _csc(self.ax.ravel(), a_rows, a_ptr, (n + m, m))
-        self.l = np.full(n + m, -_OSQP_INF)
-        self.u = np.full(n + m, _OSQP_INF)
-        self.solver = osqp.OSQP()
-        self.solver.setup(P, np.zeros(m), A, self.l, self.u, **settings)
-        self.settings = dict(settings)
-
-    def solve(self, g_rows, lo, u_min, u_max, q):
-        n = self.n
-        self.ax[:, :n] = g_rows.T
-        self.l[:n] = lo
-        self.l[n:] = u_min
-        self.u[n:] = u_max
-        self.solver.update(q=q, l=self.l, u=self.u, Ax=self.ax.ravel())
-        res = self.solver.solve(raise_error=False)
-        return res.x[: self.m].copy(), int(res.info.status_val)
-
-    def tighten(self, factor: float):
-        s = self.settings
-        self.solver.update_settings(
-            eps_abs=s["eps_abs"] * factor, eps_rel=s["eps_rel"] * factor, max_iter=4 * s["max_iter"]
-        )
-
-    def restore(self):
-        s = self.settings
-        self.solver.update_settings(
-            eps_abs=s["eps_abs"], eps_rel=s["eps_rel"], max_iter=s["max_iter"]
-        )
-
-
-class _RelaxedQP:
-    """Variables ``(u, d)``; ``[G I; I 0; 0 I] (u, d)`` in ``[lo, inf; u_min, u_max; 0, inf]``."""
-
-    def __init__(self, n: int, m: int, w: np.ndarray, rho: float, settings: dict):
-        self.n, self.m = n, m
-        p_rows = [i for j in range(m) for i in range(j + 1)] + list(range(m, m + n))
-        p_ptr = np.r_[0, np.cumsum(np.arange(1, m + 1)), m * (m + 1) // 2 + np.arange(1, n + 1)]
-        p_data = np.r_[[w[i, j] for j in range(m) for i in range(j + 1)], np.full(n, 2.0 * rho)]
-        P = _csc(p_data, p_rows, p_ptr, (m + n, m + n))
-        rows_u = [np.r_[np.arange(n), n + j] for j in range(m)]
-        rows_d = [np.array([i, n + m + i]) for i in range(n)]
-        a_rows = np.concatenate(rows_u + rows_d) if (rows_u or rows_d) else np.zeros(0)
-        a_ptr = np.r_[np.arange(m + 1) * (n + 1), m * (n + 1) + 2 * np.arange(1, n + 1)]
-        self.ax = np.ones(m * (n + 1) + 2 * n)
-        self.ax_g = self.ax[: m * (n + 1)].reshape(m, n + 1)
-        A = _csc(self.ax, a_rows, a_ptr, (2 * n + m, m + n))
-        self.l = np.full(2 * n + m, -_OSQP_INF)
-        self.l[n + m :] = 0.0
-        self.u = np.full(2 * n + m, _OSQP_INF)
-        self.q = np.full(m + n, rho)
-        self.solver = osqp.OSQP()
-        self.solver.setup(P, self.q.copy(), A, self.l, self.u, **settings)
-
-    def solve(self, g_rows, lo, u_min, u_max, q_u):
-        n, m = self.n, self.m
-        self.ax_g[:, :n] = g_rows.T
-        self.l[:n] = lo
-        self.l[n : n + m] = u_min
-        self.u[n : n + m] = u_max
-        self.q[:m] = q_u
-        self.solver.update(q=self.q, l=self.l, u=self.u, Ax=self.ax)
-        res = self.solver.solve(raise_error=False)
-        return res.x[:m].copy(), int(res.info.status_val)
-
-
-def _vector(value, n: int, name: str) -> tuple[np.ndarray, list[float]]:
-    try:
-        a = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInputError(f"{name} is not a numeric array: {exc}") from exc
-    if a.shape != (n,):
-        raise InvalidInputError(f"{name} must have shape ({n},), got {a.shape}")
-    lst = a.tolist()
-    if not all(map(math.isfinite, lst)):
-        raise InvalidInputError(f"{name} contains NaN or Inf: {lst}")
-    return a, lst
-
 
 class _Terms(NamedTuple):
     """The parts of :class:`~.lie.BarrierTerms` the QP needs (``(n,)``, ``lg_h`` ``(n, m)``)."""
@@ -229,33 +82,40 @@ class _Terms(NamedTuple):
     h: np.ndarray
     lf_h: np.ndarray
     lg_h: np.ndarray
-    clearance: np.ndarray
+    clearance: np.ndarray  # ||p_rel||^2 - r^2 [m^2] for the radius r the row uses
+    gap: np.ndarray  # ||p_rel|| - r_true [m] (FilterResult.clearance)
 
 
-class _Bounds(NamedTuple):
-    lo: np.ndarray
-    hi: np.ndarray
-    lo_l: list
-    hi_l: list
-    finite: bool  # every limit finite
+def _gap(clearance, radius, obs: Obstacles) -> np.ndarray:
+    """Signed distance [m] from the body point to each true inflated circle (< 0 inside).
+
+    NaN where rounding makes ``||p||^2`` negative (body point at a centre): such a row is
+    inside its circle, and ``_inside`` recomputes its gap with a clamp.
+    """
+    return np.sqrt(clearance + radius * radius) - obs.radius
 
 
-def _check_bounds(u_min, u_max, m: int) -> _Bounds:
-    try:
-        lo = np.full(m, -np.inf) if u_min is None else np.array(u_min, dtype=float)
-        hi = np.full(m, np.inf) if u_max is None else np.array(u_max, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise InvalidInputError(f"u_min/u_max are not numeric: {exc}") from exc
-    if lo.shape != (m,) or hi.shape != (m,):
-        raise InvalidInputError(f"u_min/u_max must have shape ({m},) and no NaN")
-    # Element-wise checks on Python floats (m is tiny): NaN, order, no +inf lower/-inf upper.
-    lo_l, hi_l = lo.tolist(), hi.tolist()
-    for a, b in zip(lo_l, hi_l, strict=True):
-        if math.isnan(a) or math.isnan(b):
-            raise InvalidInputError(f"u_min/u_max must have shape ({m},) and no NaN")
-        if a > b or a == math.inf or b == -math.inf:
-            raise InvalidInputError(f"need u_min <= u_max (finite or open), got {lo}, {hi}")
-    return _Bounds(lo, hi, lo_l, hi_l, all(map(math.isfinite, lo_l + hi_l)))
+class _Rows(NamedTuple):
+    """The constraint rows ``G u + c0 >= 0`` and their unit-norm form ``Gn u >= bn``."""
+
+    G: np.ndarray
+    c0: np.ndarray
+    Gn: np.ndarray
+    bn: np.ndarray
+    norms: np.ndarray  # ||G_i||
+    dead: np.ndarray  # rows that u cannot influence (kept unscaled)
+    any_dead: bool
+    hopeless: bool  # a dead row is violated: no input can fix it
+
+
+def _scale_rows(G, c0) -> _Rows:
+    """Scale rows to unit norm (same feasible set, better conditioning)."""
+    norms = np.sqrt(np.einsum("ij,ij->i", G, G))
+    dead = norms <= _ROW_ZERO
+    any_dead = bool(dead.any())
+    scale = np.where(dead, 1.0, norms) if any_dead else norms
+    hopeless = any_dead and bool((dead & (c0 < 0.0)).any())
+    return _Rows(G, c0, G / scale[:, None], -c0 / scale, norms, dead, any_dead, hopeless)
 
 
 class SafetyFilter:
@@ -277,7 +137,9 @@ class SafetyFilter:
             eigenvalue of ``W``.
         brake_gain: Velocity damping gain [1/s] of the EMERGENCY and FAILSAFE inputs.
         escape_accel: Acceleration [m/s^2] away from the obstacle centre in EMERGENCY.
-        osqp_settings: Overrides of the OSQP settings (see ``_OSQP_DEFAULTS``).
+        exit_speed: Radial speed [m/s] a robot inside a circle and leaving it is kept at
+            (at least, asymptotically): 0 only forbids going deeper (see ``inside``).
+        osqp_settings: Overrides of the OSQP settings (see ``OSQP_DEFAULTS``).
 
     Safety margin: the collision cone lets the body point graze the circle along a tangent
     (``h = 0`` there, distance exactly ``r``), so sampling, integration and tracking errors
@@ -306,46 +168,35 @@ class SafetyFilter:
         relax_penalty: float = 1e2,
         brake_gain: float = 2.0,
         escape_accel: float = 1.0,
+        exit_speed: float = 0.0,
         osqp_settings: dict | None = None,
     ):
         if not isinstance(model, RobotModel):
             raise InvalidInputError("model must be a RobotModel")
         m = model.n_u
         self.model = model
-        if not (np.isfinite(gamma) and gamma > 0):
-            raise InvalidInputError("gamma must be finite and > 0")
-        self.gamma = float(gamma)
-        if weights is None:
-            w = np.eye(m)
-        else:
-            w = np.asarray(weights, dtype=float)
-            if w.shape == (m,):
-                w = np.diag(w)
-            if w.shape != (m, m) or not np.isfinite(w).all() or not np.allclose(w, w.T):
-                raise InvalidInputError(f"weights must be (m,) or symmetric (m, m), m={m}")
-            try:
-                np.linalg.cholesky(w)
-            except np.linalg.LinAlgError as exc:
-                raise InvalidInputError("weights must be positive definite") from exc
+        self.gamma = checked_scalar("gamma", gamma, 0.0, low_open=True)
+        w = check_weights(weights, m)
         self.weights = w
+        self._w_diag = bool((w == np.diag(np.diag(w))).all())  # W-projection on a box = clip
         self._w_inv = np.linalg.inv(w)
         self._w_inv_l = self._w_inv.tolist()
-        self._bounds = _check_bounds(u_min, u_max, m)
+        self._bounds = check_bounds(u_min, u_max, m)
         self.u_min, self.u_max = self._bounds.lo, self._bounds.hi
         self._cur = self._bounds  # limits of the call in progress
-        if not (np.isfinite(v_eps) and v_eps >= 0):
-            raise InvalidInputError("v_eps must be finite and >= 0")
-        self.v_eps = float(v_eps)
-        if not (np.isfinite(margin) and margin >= 0):
-            raise InvalidInputError("margin must be finite and >= 0")
-        self.margin = float(margin)
+        self._far = False  # the call in progress has a far reference (domain.REF_RATIO_MAX)
+        self._umax = 0.0  # ||u_ref|| of the call in progress
+        self.v_eps = checked_scalar("v_eps", v_eps, 0.0)
+        self.margin = checked_scalar("margin", margin, 0.0)
         if method not in ("auto", "qp"):
             raise InvalidInputError("method must be 'auto' or 'qp'")
         self.method = method
-        self._rho = float(relax_penalty) * float(np.linalg.eigvalsh(w).max())
-        self.brake_gain = float(brake_gain)
-        self.escape_accel = float(escape_accel)
-        self._osqp_settings = {**_OSQP_DEFAULTS, **(osqp_settings or {})}
+        relax_penalty = checked_scalar("relax_penalty", relax_penalty, 0.0, low_open=True)
+        self._rho = relax_penalty * float(np.linalg.eigvalsh(w).max())
+        self.brake_gain = checked_scalar("brake_gain", brake_gain, 0.0)
+        self.escape_accel = checked_scalar("escape_accel", escape_accel, 0.0)
+        self.exit_speed = checked_scalar("exit_speed", exit_speed, 0.0)
+        self._osqp_settings = {**OSQP_DEFAULTS, **(osqp_settings or {})}
         # The relaxed QP is a fallback whose answer is a compromise anyway: looser tolerances
         # (still polished) keep its worst-case iteration count low.
         self._osqp_relaxed = {
@@ -353,8 +204,8 @@ class SafetyFilter:
             "eps_abs": max(self._osqp_settings["eps_abs"], 1e-5),
             "eps_rel": max(self._osqp_settings["eps_rel"], 1e-5),
         }
-        self._hard: dict[int, _HardQP] = {}
-        self._relaxed: dict[int, _RelaxedQP] = {}
+        self._hard: dict[int, HardQP] = {}
+        self._relaxed: dict[int, RelaxedQP] = {}
         self._warm: tuple = (None, ())  # (row layout, active rows) of the last active-set solve
 
     # ------------------------------------------------------------------ public API
@@ -376,27 +227,26 @@ class SafetyFilter:
             A :class:`~.result.FilterResult`; ``u_safe`` is always finite and within limits.
 
         Raises:
-            InvalidInputError: NaN/Inf or wrongly shaped state, reference, yaw or obstacles,
-                or an obstacle plane the model does not support.
+            InvalidInputError: NaN/Inf, out-of-domain (``|x| > 1e9``) or wrongly shaped
+                state, reference, yaw, limits or obstacles; an obstacle plane the model does
+                not support; a reference beyond ``domain.REF_RATIO_MAX`` x the input scale
+                whose clip to the limits is not the exact optimum.
 
         """
         t0 = time.perf_counter()
         model = self.model
-        x, xl = _vector(state, model.n_x, "state")
-        u0, ul = _vector(u_ref, model.n_u, "u_ref")
-        if model.needs_yaw:
-            try:
-                yaw = float(yaw)
-            except (TypeError, ValueError) as exc:
-                raise InvalidInputError(f"{type(model).__name__} needs yaw=<float>") from exc
-            if not math.isfinite(yaw):
-                raise InvalidInputError("yaw is NaN or Inf")
-        else:
-            yaw = None
+        x, xl, _ = vector(state, model.n_x, "state")
+        u0, ul, umax = vector(u_ref, model.n_u, "u_ref", FLOAT_MAX)
+        yaw = check_yaw(model, yaw)
         if u_min is None and u_max is None:
             self._cur = self._bounds
         else:
             self._cur = self._call_bounds(u_min, u_max)
+        # Far reference (see domain.REF_RATIO_MAX): only exact answers, else InvalidInputError.
+        self._far = far = umax > REF_RATIO_MAX and max(map(abs, ul)) > (
+            REF_RATIO_MAX * self._cur.scale
+        )
+        self._umax = umax
         if not isinstance(obstacles, Obstacles):
             raise InvalidInputError("obstacles must be an Obstacles instance")
         if not obstacles.planes_present <= model.planes:
@@ -406,7 +256,7 @@ class SafetyFilter:
             )
         try:
             kin = model.point_kinematics_tuple(xl, yaw)
-            if len(obstacles) == 1:
+            if len(obstacles) == 1 and not far:
                 res = self._filter_one(kin, u0, ul, obstacles, t0)
                 if res is not None:
                     return res
@@ -417,8 +267,8 @@ class SafetyFilter:
         except Exception as exc:  # noqa: BLE001 - never raise on numerically hard cases
             return self._failsafe(x, yaw, len(obstacles), t0, f"internal error: {exc!r}")
 
-    def _call_bounds(self, u_min, u_max) -> _Bounds:
-        return _check_bounds(
+    def _call_bounds(self, u_min, u_max) -> Bounds:
+        return check_bounds(
             self.u_min if u_min is None else u_min,
             self.u_max if u_max is None else u_max,
             self.model.n_u,
@@ -433,12 +283,12 @@ class SafetyFilter:
     # ------------------------------------------------------------------ internals
     def _filter_one(self, kin, u0, ul, obs: Obstacles, t0) -> FilterResult | None:
         """Scalar fast path for one obstacle: INACTIVE or exact closed form, else None."""
-        (c,), (cv,), (r,), (pl,) = obs.as_lists
-        r += self.margin
+        (c,), (cv,), (r0,), (pl,) = obs.as_lists
+        r = r0 + self.margin
         h, lf, lg, clearance = barrier_terms_scalar(
             kin, c[0], c[1], cv[0], cv[1], r, pl, self.v_eps
         )
-        if not clearance > _EMERGENCY_REL_CLEARANCE * r * r:
+        if not clearance > INSIDE_REL_CLEARANCE * r * r:
             return None  # inside the margin band / emergency (or NaN): general path
         c0 = lf + self.gamma * h
         psi = c0 + sum(map(mul, lg, ul))
@@ -464,7 +314,7 @@ class SafetyFilter:
         active = status is FilterStatus.ACTIVE and con * con <= _ACTIVE_TOL**2 * max(
             sum(map(mul, lg, lg)), 1.0
         )
-        vals = np.array([h, con, 0.0 if con >= 0.0 else -con])
+        vals = np.array([h, con, 0.0 if con >= 0.0 else -con, math.sqrt(clearance + r * r) - r0])
         flags = np.array([active, *map(or_, map(le, ulist, lo_b), map(ge, ulist, hi_b))])
         return FilterResult(
             u_safe=u,
@@ -476,10 +326,11 @@ class SafetyFilter:
             bounds_active=flags[1:],
             solver=solver,
             solve_time=time.perf_counter() - t0,
+            clearance=vals[3:4],
         )
 
     def _terms(self, kin, obs: Obstacles, radius) -> _Terms:
-        """h, Lf h, Lg h and clearance of every obstacle (``kin`` as tuples).
+        """h, Lf h, Lg h and clearances of every obstacle (``kin`` as tuples).
 
         Up to ``_SCALAR_TERMS_MAX`` obstacles the scalar formulas per obstacle
         (``barrier_terms_scalar``, tested against ``barrier_terms``) cost fewer operations
@@ -496,114 +347,194 @@ class SafetyFilter:
                 )
             ]
             h, lf, lg, clearance = zip(*rows, strict=True)
-            return _Terms(np.array(h), np.array(lf), np.array(lg), np.array(clearance))
+            cl = np.array(clearance)
+            return _Terms(np.array(h), np.array(lf), np.array(lg), cl, _gap(cl, radius, obs))
         kin = PointKinematics(*(np.array(k, dtype=float) for k in kin))
-        t = barrier_terms(kin, obs.center, obs.velocity, radius, obs.plane, self.v_eps)
-        return _Terms(t.h, t.lf_h, t.lg_h.reshape(n, self.model.n_u), t.clearance)
+        t = _barrier_terms(kin, obs.center, obs.velocity, radius, obs.plane, self.v_eps)
+        lg = t.lg_h.reshape(n, self.model.n_u)
+        return _Terms(t.h, t.lf_h, lg, t.clearance, _gap(t.clearance, radius, obs))
 
     def _filter(self, x, u0, ul, kin, obs: Obstacles, yaw, t0) -> FilterResult:
+        """Barrier terms of every obstacle, then the QP (or the inside-a-circle handling)."""
         radius = obs.radius + self.margin
         terms = self._terms(kin, obs, radius)
-        inside = terms.clearance <= _EMERGENCY_REL_CLEARANCE * radius * radius
+        inside = terms.clearance < INSIDE_REL_CLEARANCE * radius * radius
         if self.margin > 0.0 and inside.any():
             # Inside r + margin: use the exact barrier of the true radius r for those rows.
             radius = np.where(inside, obs.radius, radius)
             terms = self._terms(kin, obs, radius)
-            inside = terms.clearance <= _EMERGENCY_REL_CLEARANCE * radius * radius
+            inside = terms.clearance < INSIDE_REL_CLEARANCE * radius * radius
         G = terms.lg_h
         c0 = terms.lf_h + self.gamma * terms.h  # constraint: G u + c0 >= 0
         if not (np.isfinite(c0).all() and np.isfinite(G).all()):
             return self._failsafe(x, yaw, len(obs), t0, "non-finite barrier terms")
         if inside.any():
-            kin = PointKinematics(*(np.array(k, dtype=float) for k in kin))
-            full = barrier_terms(kin, obs.center, obs.velocity, radius, obs.plane, self.v_eps)
-            return self._emergency(x, yaw, kin, full, obs.plane, inside, c0, t0)
+            return self._inside(x, u0, ul, yaw, kin, obs, radius, terms, inside, t0)
+        return self._solve(x, u0, ul, yaw, terms, G, c0, t0)
+
+    def _solve(self, x, u0, ul, yaw, terms: _Terms, G, c0, t0) -> FilterResult:
+        """The QP for the rows ``G u + c0 >= 0`` (module docstring, steps 1-5)."""
         cur = self._cur
-        lo_b, hi_b = cur.lo, cur.hi
         in_box = all(map(le, cur.lo_l, ul)) and all(map(le, ul, cur.hi_l))
         if in_box and (G @ u0 + c0 >= 0.0).all():
             return self._result(u0.copy(), FilterStatus.INACTIVE, terms, G, c0, "none", t0)
+        if self._far:
+            return self._far_reference(u0, terms, G, c0, t0)
+        rows = _scale_rows(G, c0)
+        infeasible = rows.hopeless
+        if not infeasible and self.method == "auto":
+            u, infeasible = self._active_set(u0, rows)
+            if u is not None:
+                return self._result(
+                    u, FilterStatus.ACTIVE, terms, G, c0, "active_set", t0, norms=rows.norms
+                )
+        return self._solve_osqp(x, u0, yaw, terms, rows, infeasible, t0)
 
-        norms = np.sqrt(np.einsum("ij,ij->i", G, G))
-        dead = norms <= _ROW_ZERO  # rows that u cannot influence
-        any_dead = bool(dead.any())
-        if any_dead:
-            scale = np.where(dead, 1.0, norms)
-            Gn = G / scale[:, None]
-            bn = -c0 / scale  # scaled constraint: Gn u >= bn
-        else:
-            Gn = G / norms[:, None]
-            bn = -c0 / norms
-        hopeless = any_dead and bool((dead & (c0 < 0.0)).any())
+    def _active_set(self, u0, rows: _Rows):
+        """Exact dual active-set solve: ``(u or None, infeasible)``; ``u`` verified."""
+        cur = self._cur
+        any_dead = rows.any_dead
+        live = ~rows.dead if any_dead else slice(None)
+        # Warm start from the last call's active rows when the row layout is the same.
+        layout = (len(rows.bn), cur.finite) if not any_dead else None
+        warm = self._warm[1] if layout is not None and self._warm[0] == layout else ()
+        sol = solve_box_qp(
+            self._w_inv, u0, rows.Gn[live], rows.bn[live], cur.lo, cur.hi, cur.finite, warm
+        )
+        self._warm = (layout, sol.active)
+        if sol.u is not None:
+            u = np.minimum(np.maximum(sol.u, cur.lo), cur.hi)  # np.clip, less overhead
+            lo_rows = np.where(rows.dead, -OSQP_INF, rows.bn) if any_dead else rows.bn
+            if self._verify(u, rows.Gn, lo_rows):
+                return u, False
+        return None, sol.infeasible  # infeasible: a Farkas certificate
 
-        if self.method == "auto" and not hopeless:
-            # Exact dual active-set solve (its first step is the closed-form projection).
-            live = ~dead if any_dead else slice(None)
-            # Warm start from the last call's active rows when the row layout is the same.
-            layout = (len(obs), cur.finite) if not any_dead else None
-            warm = self._warm[1] if layout is not None and self._warm[0] == layout else ()
-            sol = solve_box_qp(
-                self._w_inv, u0, Gn[live], bn[live], lo_b, hi_b, cur.finite, warm
-            )
-            self._warm = (layout, sol.active)
-            if sol.u is not None:
-                u = np.minimum(np.maximum(sol.u, lo_b), hi_b)  # np.clip, less overhead
-                if self._verify(u, Gn, np.where(dead, -_OSQP_INF, bn) if any_dead else bn):
-                    return self._result(
-                        u, FilterStatus.ACTIVE, terms, G, c0, "active_set", t0, norms=norms
-                    )
-            infeasible = sol.infeasible  # a Farkas certificate: go straight to the relaxed QP
-        else:
-            infeasible = False
-
-        # OSQP. Which rows can bind inside the box, which cannot hold at all?
+    def _solve_osqp(self, x, u0, yaw, terms: _Terms, rows: _Rows, infeasible, t0):
+        """OSQP on the rows that can bind inside the box; the relaxed QP if infeasible."""
+        lo_b, hi_b = self._cur.lo, self._cur.hi
+        Gn, bn = rows.Gn, rows.bn
+        G, c0 = rows.G, rows.c0
         with np.errstate(invalid="ignore"):
             row_min = np.where(Gn > 0, Gn * lo_b, np.where(Gn < 0, Gn * hi_b, 0.0)).sum(axis=1)
             row_max = np.where(Gn > 0, Gn * hi_b, np.where(Gn < 0, Gn * lo_b, 0.0)).sum(axis=1)
-        redundant = dead | (bn <= row_min)
-        lo_rows = np.where(redundant, -_OSQP_INF, bn)
-        infeasible = (
-            infeasible or hopeless or bool((bn > row_max + _FEAS_TOL)[~redundant].any())
-        )
+        redundant = rows.dead | (bn <= row_min)
+        lo_rows = np.where(redundant, -OSQP_INF, bn)
+        infeasible = infeasible or bool((bn > row_max + _FEAS_TOL)[~redundant].any())
         q = -(self.weights @ u0)
-        n = len(obs)
+        n = len(bn)
         msg = "constraints infeasible within input limits"
         if not infeasible:
-            u, ok, status_val = self._solve_hard(n, Gn, lo_rows, q)
+            u, ok, st = self._solve_hard(n, Gn, lo_rows, q)
             if ok:
-                msg = "" if status_val == osqp.SolverStatus.OSQP_SOLVED else (
-                    f"OSQP status {osqp.SolverStatus(status_val).name}: feasible, "
-                    "optimality not certified"
+                msg = "" if st == osqp.SolverStatus.OSQP_SOLVED else (
+                    f"hard QP {describe_osqp_status(st)}: feasible, optimality not certified"
                 )
                 return self._result(u, FilterStatus.ACTIVE, terms, G, c0, "osqp", t0, msg)
-            if status_val not in _INFEASIBLE:
-                if status_val not in _RETRYABLE:
-                    return self._failsafe(
-                        x, yaw, n, t0, f"OSQP status {status_val}", terms, G, c0
-                    )
-                msg = (
-                    f"hard QP not solved to tolerance (OSQP status "
-                    f"{osqp.SolverStatus(status_val).name}): relaxed QP used"
-                )
-        u, status_val = self._solve_relaxed(n, Gn, lo_rows, q)
+            if st not in INFEASIBLE:
+                words = describe_osqp_status(st)
+                if st not in RETRYABLE:
+                    return self._failsafe(x, yaw, n, t0, f"hard QP failed: {words}", terms, G, c0)
+                if self.method == "qp" and not rows.hopeless:
+                    # OSQP did not converge (e.g. a thin feasible slab): the exact method has
+                    # not run yet, let it answer before relaxing anything.
+                    u, infeasible = self._active_set(u0, rows)
+                    if u is not None:
+                        msg = f"hard QP {words}: answered by the exact active-set method"
+                        return self._result(
+                            u, FilterStatus.ACTIVE, terms, G, c0, "active_set", t0, msg
+                        )
+                if not infeasible:
+                    msg = f"hard QP not solved to tolerance ({words}): relaxed QP used"
+        u, st = self._solve_relaxed(n, Gn, lo_rows, q)
         if u is None:
-            return self._failsafe(x, yaw, n, t0, f"relaxed QP failed ({status_val})", terms, G, c0)
+            return self._failsafe(
+                x, yaw, n, t0, f"relaxed QP failed: {describe_osqp_status(st)}", terms, G, c0
+            )
         return self._result(u, FilterStatus.RELAXED, terms, G, c0, "osqp", t0, msg)
 
+    def _inside(self, x, u0, ul, yaw, kin, obs: Obstacles, radius, terms: _Terms, inside, t0):
+        """Body point inside >= 1 inflated circle: EMERGENCY (see ``inside``).
+
+        Leaving every such circle: the QP with their radial no-deeper rows in place of their
+        cone rows. Otherwise: brake and back out of them (the escape input).
+        """
+        kin = PointKinematics(*(np.array(k, dtype=float) for k in kin))
+        idx = np.flatnonzero(inside)
+        rad = radial_terms(kin, obs.center[idx], obs.velocity[idx], obs.plane[idx])
+        G = terms.lg_h.copy()
+        c0 = terms.lf_h + self.gamma * terms.h
+        G[idx] = rad.lg
+        c0[idx] = rad.lf + self.gamma * (rad.speed - self.exit_speed)
+        h, gap = terms.h.copy(), terms.gap.copy()
+        h[idx] = signed_h(h[idx], terms.clearance[idx], radius[idx], self.gamma)
+        gap[idx] = np.sqrt((rad.p_rel * rad.p_rel).sum(-1)) - obs.radius[idx]
+        terms = terms._replace(h=h, gap=gap)
+        names = idx.tolist()
+        if (rad.speed > 0.0).all():
+            res = self._solve(x, u0, ul, yaw, terms, G, c0, t0)
+            if res.status is not FilterStatus.FAILSAFE:
+                speeds = ", ".join(f"{s:.3g}" for s in rad.speed.tolist())
+                res.message = (
+                    f"inside the inflated radius of obstacle(s) {names} and leaving (radial "
+                    f"speed {speeds} m/s): the reference is kept unless it would go deeper"
+                    + (f"; {res.message}" if res.message else "")
+                )
+                res.status, res.active = FilterStatus.EMERGENCY, inside.copy()
+                return res
+        brake_u = self.model.brake_input(x, yaw, self.brake_gain)
+        u = escape_input(
+            kin, rad.p_rel, obs.plane[idx], brake_u, self.brake_gain, self.escape_accel
+        )
+        if not np.isfinite(u).all():
+            u = self._brake(x, yaw)
+        u = np.clip(u, self._cur.lo, self._cur.hi)
+        msg = f"inside the inflated radius of obstacle(s) {names}, not leaving: brake, back out"
+        res = self._result(u, FilterStatus.EMERGENCY, terms, G, c0, "none", t0, msg)
+        res.active = inside.copy()
+        return res
+
+    def _far_reference(self, u0, terms: _Terms, G, c0, t0) -> FilterResult:
+        """Far ``u_ref`` (beyond ``REF_RATIO_MAX`` x the input scale), not itself admissible.
+
+        Its clip when that is the exact optimum (diagonal ``W``, every barrier row holds),
+        else :class:`InvalidInputError` (see ``domain.REF_RATIO_MAX``).
+        """
+        cur = self._cur
+        uc = np.minimum(np.maximum(u0, cur.lo), cur.hi)
+        if self._w_diag and (G @ uc + c0 >= 0.0).all():
+            msg = (
+                f"u_ref beyond {REF_RATIO_MAX:.0e} x the input scale: clipped to the limits "
+                "(exact: the clip satisfies every barrier constraint)"
+            )
+            return self._result(uc, FilterStatus.ACTIVE, terms, G, c0, "clip", t0, msg)
+        i = int(np.argmax(np.abs(u0)))
+        raise InvalidInputError(
+            f"u_ref[{i}] = {float(u0[i])!r} is beyond {REF_RATIO_MAX:.0e} x the input scale "
+            f"{cur.scale:g} (1 + largest finite limit) and the optimum is not its clip to the "
+            "limits: rounding would dominate the QP's answer; bring the reference within the "
+            "bound"
+        )
+
     def _verify(self, u, Gn, lo_rows) -> bool:
-        return bool(np.isfinite(u).all() and (Gn @ u >= lo_rows - _FEAS_TOL).all())
+        """Every (unit-norm) row holds at ``u`` within the rounding of the numbers involved."""
+        size = math.hypot(*u.tolist())  # (m <= 3: cheaper than numpy reductions)
+        if not size <= FLOAT_MAX:  # NaN or inf
+            return False
+        tol = _FEAS_TOL * (1.0 + size) + _ROUND_TOL * self._umax
+        return bool((Gn @ u >= lo_rows - tol).all())
 
     def _solve_hard(self, n, Gn, lo_rows, q):
         qp = self._hard.get(n)
         if qp is None:
-            qp = self._hard[n] = _HardQP(n, self.model.n_u, self.weights, self._osqp_settings)
+            qp = self._hard[n] = HardQP(n, self.model.n_u, self.weights, self._osqp_settings)
         u, st = qp.solve(Gn, lo_rows, self._cur.lo, self._cur.hi, q)
         solved = (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE)
         if st in solved or st == osqp.SolverStatus.OSQP_MAX_ITER_REACHED:
             u = np.clip(u, self._cur.lo, self._cur.hi)
-            if self._verify(u, Gn, lo_rows):
+            if st == osqp.SolverStatus.OSQP_SOLVED and self._verify(u, Gn, lo_rows):
                 return u, True, st
-            # Tighten and re-solve (warm started from the previous iterate).
+            # Not certified (an iterate at the iteration limit can be feasible yet far from
+            # optimal) or not verified: tighten and re-solve, warm started from that iterate.
             qp.tighten(1e-3)
             try:
                 u2, st = qp.solve(Gn, lo_rows, self._cur.lo, self._cur.hi, q)
@@ -617,7 +548,7 @@ class SafetyFilter:
     def _solve_relaxed(self, n, Gn, lo_rows, q):
         qp = self._relaxed.get(n)
         if qp is None:
-            qp = self._relaxed[n] = _RelaxedQP(
+            qp = self._relaxed[n] = RelaxedQP(
                 n, self.model.n_u, self.weights, self._rho, self._osqp_relaxed
             )
         u, st = qp.solve(Gn, lo_rows, self._cur.lo, self._cur.hi, q)
@@ -654,6 +585,7 @@ class SafetyFilter:
             solver=solver,
             solve_time=time.perf_counter() - t0,
             message=message,
+            clearance=terms.gap,
         )
 
     def _brake(self, x, yaw) -> np.ndarray:
@@ -665,10 +597,11 @@ class SafetyFilter:
         u = self._brake(x, yaw)
         u = np.where(np.isfinite(u), u, np.clip(0.0, self._cur.lo, self._cur.hi))
         if terms is None or G is None or c0 is None:
-            h = con = np.zeros(n)
+            h = con = gap = np.zeros(n)
         else:
             h = np.nan_to_num(terms.h)
             con = np.nan_to_num(c0 + G @ u)
+            gap = np.nan_to_num(terms.gap)
         return FilterResult(
             u_safe=u,
             status=FilterStatus.FAILSAFE,
@@ -680,44 +613,5 @@ class SafetyFilter:
             solver="none",
             solve_time=time.perf_counter() - t0,
             message=message,
-        )
-
-    def _emergency(self, x, yaw, kin, terms: BarrierTerms, plane, inside, c0, t0) -> FilterResult:
-        """Brake and accelerate the body point away from the centres it is inside."""
-        G = terms.lg_h
-        plane_axes = PLANE_AXES[plane[inside]]
-        away_2d = -terms.p_rel[inside]  # body point minus obstacle centre, in-plane
-        dist = np.linalg.norm(away_2d, axis=1)
-        v3 = kin.velocity
-        for i in np.flatnonzero(dist < 1e-9):  # exactly at the centre: back off along -V
-            back = -v3[plane_axes[i]]
-            nb = np.linalg.norm(back)
-            away_2d[i] = back / nb if nb > 1e-9 else np.array([-1.0, 0.0])
-            dist[i] = 1.0
-        away = np.zeros(3)
-        np.add.at(away, plane_axes, away_2d / dist[:, None])
-        na = np.linalg.norm(away)
-        if na > 1e-12:
-            away /= na
-        a_des = -self.brake_gain * v3 + self.escape_accel * away
-        B = kin.accel_input
-        B_pinv = np.linalg.pinv(B)
-        u = B_pinv @ (a_des - kin.accel_drift)
-        null = np.eye(B.shape[1]) - B_pinv @ B
-        u = u + null @ np.asarray(self.model.brake_input(x, yaw, self.brake_gain), dtype=float)
-        if not np.isfinite(u).all():
-            u = self._brake(x, yaw)
-        u = np.clip(u, self._cur.lo, self._cur.hi)
-        con = np.nan_to_num(c0 + G @ u)
-        return FilterResult(
-            u_safe=u,
-            status=FilterStatus.EMERGENCY,
-            h=np.nan_to_num(terms.h),
-            constraint=con,
-            slack=np.maximum(-con, 0.0),
-            active=inside.copy(),
-            bounds_active=(u <= self._cur.lo) | (u >= self._cur.hi),
-            solver="none",
-            solve_time=time.perf_counter() - t0,
-            message=f"inside the inflated radius of obstacle(s) {np.flatnonzero(inside).tolist()}",
+            clearance=gap,
         )

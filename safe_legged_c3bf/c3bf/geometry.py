@@ -24,6 +24,7 @@ from functools import cached_property
 
 import numpy as np
 
+from .domain import MAX_MAGNITUDE, bad_entry, checked
 from .errors import InvalidInputError
 
 __all__ = ["EllipseObstacle", "Obstacles", "Plane", "inflated_radius"]
@@ -50,14 +51,14 @@ def inflated_radius(c1, c2, robot_dim):
         The inflated radius, a float or an array broadcast from the inputs.
 
     Raises:
-        InvalidInputError: if an input is not finite or negative, or the radius is not > 0.
+        InvalidInputError: if an input is not finite, beyond the domain's magnitude
+            (``domain.MAX_MAGNITUDE``) or negative, or the radius is not > 0.
 
     """
-    c1a, c2a, da = (np.asarray(v, dtype=float) for v in (c1, c2, robot_dim))
-    if not (np.isfinite(c1a).all() and np.isfinite(c2a).all() and np.isfinite(da).all()):
-        raise InvalidInputError("ellipse semi-axes and robot dimension must be finite")
-    if (c1a < 0).any() or (c2a < 0).any() or (da < 0).any():
-        raise InvalidInputError("ellipse semi-axes and robot dimension must be >= 0")
+    c1a, c2a, da = (checked(k, v) for k, v in (("c1", c1), ("c2", c2), ("robot_dim", robot_dim)))
+    for k, a in (("c1", c1a), ("c2", c2a), ("robot_dim", da)):
+        if (a < 0).any():
+            raise InvalidInputError(f"{k} = {a.tolist()!r} must be >= 0")
     r = np.maximum(c1a, c2a) + 0.5 * da
     if (r <= 0).any():
         raise InvalidInputError("inflated radius must be > 0")
@@ -80,6 +81,33 @@ class EllipseObstacle:
     semi_axes: tuple[float, float]
     velocity: tuple[float, float] = (0.0, 0.0)
     plane: Plane = Plane.VERTICAL
+
+    def __post_init__(self) -> None:
+        """Validate and normalise: pairs of floats in the domain, semi-axes > 0, a Plane.
+
+        Raises :class:`InvalidInputError` naming the obstacle and the bad value.
+        """
+        values = {}
+        for name in ("center", "semi_axes", "velocity"):
+            raw = getattr(self, name)
+            try:
+                a = np.asarray(raw, dtype=float)
+            except (TypeError, ValueError):
+                a = None
+            if a is None or a.shape != (2,):
+                raise InvalidInputError(f"{self!r}: {name} must be 2 numbers, got {raw!r}")
+            problem = bad_entry(name, a, positive=name == "semi_axes")
+            if problem:
+                raise InvalidInputError(f"{self!r}: {problem}")
+            values[name] = (float(a[0]), float(a[1]))
+        try:
+            values["plane"] = Plane(self.plane)
+        except (TypeError, ValueError) as exc:
+            raise InvalidInputError(
+                f"{self!r}: plane = {self.plane!r} is not Plane.VERTICAL (0) or HORIZONTAL (1)"
+            ) from exc
+        for name, v in values.items():
+            object.__setattr__(self, name, v)
 
     def radius(self, robot_width: float, robot_height: float) -> float:
         """Inflated radius [m] using the robot width (VERTICAL) or height (HORIZONTAL)."""
@@ -123,12 +151,19 @@ class Obstacles:
                 "velocity must be (n, 2) and radius/plane (n,) for n = len(center)"
             ) from exc
         for name, arr in (("center", c), ("velocity", v), ("radius", r)):
-            if not np.isfinite(arr).all():
-                raise InvalidInputError(f"obstacle {name} contains NaN or Inf")
-        if (r <= 0).any():
-            raise InvalidInputError("obstacle radius must be > 0")
-        if ((p != Plane.VERTICAL) & (p != Plane.HORIZONTAL)).any():
-            raise InvalidInputError("plane entries must be Plane.VERTICAL (0) or HORIZONTAL (1)")
+            ok = np.abs(arr) <= MAX_MAGNITUDE  # False for NaN
+            if name == "radius":
+                ok &= arr > 0.0
+            if not ok.all():
+                i = int(np.flatnonzero(~ok.reshape(n, -1).all(axis=1))[0])
+                problem = bad_entry(name, arr[i], positive=name == "radius")
+                raise InvalidInputError(f"obstacle {i}: {problem}")
+        wrong = (p != Plane.VERTICAL) & (p != Plane.HORIZONTAL)
+        if wrong.any():
+            i = int(np.flatnonzero(wrong)[0])
+            raise InvalidInputError(
+                f"obstacle {i}: plane = {int(p[i])} is not Plane.VERTICAL (0) or HORIZONTAL (1)"
+            )
         for name, arr in (("center", c), ("velocity", v), ("radius", r), ("plane", p)):
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
@@ -185,6 +220,9 @@ class Obstacles:
         obs = list(obstacles)
         if not obs:
             return cls.empty()
+        for i, o in enumerate(obs):
+            if not isinstance(o, EllipseObstacle):
+                raise InvalidInputError(f"obstacle {i}: {o!r} is not an EllipseObstacle")
         return cls(
             np.array([o.center for o in obs], dtype=float),
             np.array([o.velocity for o in obs], dtype=float),
@@ -209,9 +247,10 @@ class Obstacles:
         """Wrap arrays whose validity the caller guarantees: no copy, no per-array checks.
 
         For per-cycle sets derived from inputs validated once (e.g. when a message arrives):
-        ``center``/``velocity`` float ``(n, 2)``, ``radius`` float ``(n,)``, all finite,
-        radii > 0, ``plane`` integer ``(n,)`` of :class:`Plane` values. The arrays are made
-        read-only (the caller must not keep writing to them). ``planes_present``, if given,
+        ``center``/``velocity`` float ``(n, 2)``, ``radius`` float ``(n,)``, all finite and
+        within the domain (``|x| <= domain.MAX_MAGNITUDE``), radii > 0, ``plane`` integer
+        ``(n,)`` of :class:`Plane` values. The arrays are made read-only (the caller must not
+        keep writing to them). ``planes_present``, if given,
         must equal the set of planes in ``plane`` (it then need not be computed).
         """
         new = object.__new__(cls)
@@ -229,8 +268,8 @@ class Obstacles:
 
     def advanced(self, dt: float) -> Obstacles:
         """Return the set with centres moved by ``velocity * dt`` (constant-velocity motion)."""
-        if not np.isfinite(dt):
-            raise InvalidInputError("dt must be finite")
+        if not abs(dt) <= MAX_MAGNITUDE:  # False for NaN
+            raise InvalidInputError(bad_entry("dt", dt))
         # Inputs already validated: skip re-validation.
         return Obstacles.from_validated(
             self.center + self.velocity * float(dt), self.velocity, self.radius, self.plane

@@ -24,7 +24,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .barrier import DEFAULT_V_EPS, c3bf_gradient, c3bf_gradient_scalar
+from .barrier import DEFAULT_V_EPS, _gradient, c3bf_gradient_scalar
+from .domain import MAX_DERIVED, checked, checked_scalar
+from .errors import InvalidInputError
 from .models import PointKinematics, RobotModel
 
 __all__ = [
@@ -69,7 +71,23 @@ def barrier_terms(
         plane: ``(..., n)`` integer :class:`~.geometry.Plane` values.
         v_eps: Relative-speed regularisation [m/s].
 
+    Raises:
+        InvalidInputError: a number not finite or beyond ``domain.MAX_DERIVED``, a radius
+            not > 0, a plane not 0 or 1.
+
     """
+    kin = PointKinematics(*(checked(f"kin.{k}", a, MAX_DERIVED) for k, a in kin._asdict().items()))
+    center = checked("center", center, MAX_DERIVED)
+    velocity = checked("velocity", velocity, MAX_DERIVED)
+    radius = checked("radius", radius, MAX_DERIVED, positive=True)
+    pl = np.asarray(plane)
+    if not np.isin(pl, (0, 1)).all():
+        raise InvalidInputError(f"plane entries must be 0 (VERTICAL) or 1 (HORIZONTAL): {pl}")
+    return _barrier_terms(kin, center, velocity, radius, pl, checked_scalar("v_eps", v_eps, 0.0))
+
+
+def _barrier_terms(kin, center, velocity, radius, plane, v_eps) -> BarrierTerms:
+    """Unchecked :func:`barrier_terms` (the filter's vectorised path)."""
     axes = PLANE_AXES[np.asarray(plane, dtype=np.intp)]  # (..., n, 2)
     pos = np.asarray(kin.position, dtype=float)
     if pos.ndim == 1:  # single state: plain fancy indexing (fast path)
@@ -85,7 +103,7 @@ def barrier_terms(
     r = np.asarray(radius, dtype=float)
     p = np.asarray(center, dtype=float) - P
     v = np.asarray(velocity, dtype=float) - V
-    h, dh_dp, dh_dv, _ = c3bf_gradient(p, v, r, v_eps)
+    h, dh_dp, dh_dv, _ = _gradient(p, v, r, v_eps)
     lf = (dh_dp * v).sum(-1) - (dh_dv * A).sum(-1)
     lg = -(dh_dv[..., :, None] * B).sum(-2)
     clearance = (p * p).sum(-1) - r * r

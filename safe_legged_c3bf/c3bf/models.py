@@ -46,6 +46,7 @@ from typing import ClassVar, NamedTuple
 
 import numpy as np
 
+from .domain import checked, checked_scalar
 from .errors import InvalidInputError
 from .geometry import Plane
 
@@ -77,10 +78,16 @@ class PointKinematics(NamedTuple):
 
 
 def _state(x, n: int) -> np.ndarray:
-    a = np.asarray(x, dtype=float)
+    """``x`` as a float array with last dimension ``n``, every entry in the domain."""
+    a = checked("state", x)
     if a.shape[-1:] != (n,):
         raise InvalidInputError(f"state must have last dimension {n}, got shape {a.shape}")
     return a
+
+
+def _offset(model) -> None:
+    """Validate a model's body-point offset ``l`` [m] (finite, ``|l| <= 1e9``)."""
+    object.__setattr__(model, "offset", checked_scalar("offset", model.offset))
 
 
 class RobotModel(ABC):
@@ -110,10 +117,7 @@ class RobotModel(ABC):
             return None
         if yaw is None:
             raise InvalidInputError(f"{type(self).__name__} needs the yaw angle (yaw=...)")
-        y = np.asarray(yaw, dtype=float)
-        if not np.isfinite(y).all():
-            raise InvalidInputError("yaw contains NaN or Inf")
-        return y
+        return checked("yaw", yaw)
 
     @abstractmethod
     def f(self, x, yaw=None) -> np.ndarray:
@@ -187,6 +191,10 @@ class UnicycleModel(RobotModel):
 
     offset: float = 0.0
 
+    def __post_init__(self) -> None:
+        """Validate the offset (finite, ``|l| <= 1e9`` m)."""
+        _offset(self)
+
     state_names: ClassVar[tuple[str, ...]] = ("x", "y", "theta", "v", "omega")
     input_names: ClassVar[tuple[str, ...]] = ("a", "alpha")
     planes: ClassVar[frozenset[Plane]] = frozenset({Plane.VERTICAL})
@@ -219,6 +227,7 @@ class UnicycleModel(RobotModel):
 
     def brake_input(self, x, yaw=None, gain=2.0):
         """``(-gain v, -gain omega)``."""
+        gain = checked_scalar("gain", gain, 0.0)
         x = _state(x, 5)
         return -gain * x[..., 3:5]
 
@@ -257,6 +266,7 @@ class XZDoubleIntegratorModel(RobotModel):
 
     def brake_input(self, x, yaw=None, gain=2.0):
         """``(-gain vx, -gain vz)``."""
+        gain = checked_scalar("gain", gain, 0.0)
         x = _state(x, 4)
         return -gain * x[..., 2:4]
 
@@ -302,6 +312,7 @@ class HolonomicModel(RobotModel):
 
     def brake_input(self, x, yaw=None, gain=2.0):
         """Body-frame ``R(yaw)^T (-gain (vx, vy))``."""
+        gain = checked_scalar("gain", gain, 0.0)
         x = _state(x, 4)
         th = np.broadcast_to(self._yaw(yaw), x.shape[:-1])
         c, s = np.cos(th), np.sin(th)
@@ -330,6 +341,10 @@ class UnicycleHeightModel(RobotModel):
     """
 
     offset: float = 0.0
+
+    def __post_init__(self) -> None:
+        """Validate the offset (finite, ``|l| <= 1e9`` m)."""
+        _offset(self)
 
     state_names: ClassVar[tuple[str, ...]] = ("x", "y", "theta", "v", "omega", "z", "vz")
     input_names: ClassVar[tuple[str, ...]] = ("a", "alpha", "a_z")
@@ -364,6 +379,7 @@ class UnicycleHeightModel(RobotModel):
 
     def brake_input(self, x, yaw=None, gain=2.0):
         """``(-gain v, -gain omega, -gain vz)``."""
+        gain = checked_scalar("gain", gain, 0.0)
         x = _state(x, 7)
         return -gain * np.stack([x[..., 3], x[..., 4], x[..., 6]], axis=-1)
 
@@ -413,6 +429,7 @@ class HolonomicHeightModel(RobotModel):
 
     def brake_input(self, x, yaw=None, gain=2.0):
         """``(R^T (-gain (vx, vy)), -gain vz)``."""
+        gain = checked_scalar("gain", gain, 0.0)
         x = _state(x, 6)
         th = np.broadcast_to(self._yaw(yaw), x.shape[:-1])
         c, s = np.cos(th), np.sin(th)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import StrEnum
 
 import numpy as np
@@ -24,8 +24,12 @@ class FilterStatus(StrEnum):
     (Also used, with a ``message`` saying so, in the rare case that OSQP could not solve the
     exact QP to tolerance.)"""
     EMERGENCY = "emergency"
-    """The body point is already inside an inflated circle (``||p_rel|| <= r``, barrier
-    undefined): brake and accelerate away from the obstacle centre(s)."""
+    """The body point is inside an inflated circle (``||p_rel||^2 - r^2 < 1e-9 r^2``: the
+    barrier is undefined there). Leaving every such circle (radial speed ``> 0``): the usual
+    QP with, for those circles, the no-deeper constraint on the radial speed in place of the
+    cone constraint (an outward motion is not braked; ``message`` says "... and leaving").
+    Otherwise: brake and accelerate away from their centres ("... not leaving"). See
+    ``inside``."""
     FAILSAFE = "failsafe"
     """The solver failed or the numbers overflowed: brake input (clipped to the limits)."""
 
@@ -40,17 +44,26 @@ class FilterResult:
     Attributes:
         u_safe: ``(m,)`` filtered input, always finite and within ``[u_min, u_max]``.
         status: :class:`FilterStatus`.
-        h: ``(n,)`` barrier values ``h`` [m^2/s] at the current state (``sqrt`` clamped to 0
-            for obstacles the robot is inside).
-        constraint: ``(n,)`` ``Lf h + Lg h u_safe + gamma h``; ``>= 0`` means satisfied.
+        h: ``(n,)`` barrier values ``h`` [m^2/s] at the current state; ``h >= 0`` means
+            safe. For obstacles the robot is inside the cone barrier is undefined and ``h``
+            is reported as ``min(<p_rel, v_rel>, gamma (||p_rel||^2 - r^2 - 1e-9 r^2))``,
+            always ``< 0`` (``inside.signed_h``).
+        constraint: ``(n,)`` ``Lf h + Lg h u_safe + gamma h`` [m^2/s^2]; ``>= 0`` means
+            satisfied. For obstacles the robot is inside: the no-deeper constraint
+            ``Lf b + Lg b u_safe + gamma (b - exit_speed)`` [m/s^2] of the radial speed ``b``.
         slack: ``(n,)`` constraint violation ``max(0, -constraint)`` (0 unless RELAXED,
             EMERGENCY or FAILSAFE).
         active: ``(n,)`` bool, constraints binding at ``u_safe`` (for EMERGENCY: the
             obstacles the robot is inside).
         bounds_active: ``(m,)`` bool, inputs at ``u_min`` or ``u_max`` after filtering.
-        solver: ``'closed_form'``, ``'active_set'``, ``'osqp'`` or ``'none'``.
+        solver: ``'closed_form'``, ``'active_set'``, ``'osqp'``, ``'clip'`` (a reference
+            beyond ``domain.REF_RATIO_MAX`` whose clip is the exact optimum) or ``'none'``.
         solve_time: Wall-clock time of the whole ``filter`` call [s].
         message: Human-readable detail (empty when nothing noteworthy happened).
+        clearance: ``(n,)`` signed distance [m] from the body point to each (true, i.e.
+            without ``margin``) inflated circle, in the obstacle's plane: ``||p_rel|| - r``,
+            negative inside. (Not ``BarrierTerms.clearance``, which is ``||p_rel||^2 - r^2``
+            [m^2].) Zeros for a FAILSAFE raised before the barrier terms were computed.
 
     """
 
@@ -64,6 +77,7 @@ class FilterResult:
     solver: str
     solve_time: float
     message: str = ""
+    clearance: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
     def modified(self) -> bool:
