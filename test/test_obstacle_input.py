@@ -99,10 +99,13 @@ def test_obstacle_set_is_validated_once_and_read_only():
 
 @pytest.mark.filterwarnings("ignore:overflow encountered")
 def test_overflowing_prediction_is_rejected():
-    s = ObstacleSet.from_inputs([ObstacleInput(
-        "fast", 0, np.zeros(3), np.array([1e308, 0.0, 0.0]), np.ones(2), 1.0)])
-    with pytest.raises(InvalidInputError):
-        to_c3bf_obstacles(s, 10.0, 0.0, 0.8, 0.1, 0.0, 0.0)
+    fast = [ObstacleInput("fast", 0, np.zeros(3), np.array([1e308, 0.0, 0.0]), np.ones(2), 1.0)]
+    with pytest.raises(InvalidInputError, match="domain"):  # refused before it can overflow
+        ObstacleSet.from_inputs(fast)
+    with pytest.raises(InvalidInputError):  # a list is validated the same way
+        to_c3bf_obstacles(fast, 10.0, 0.0, 0.8, 0.1, 0.0, 0.0)
+    edge = [ObstacleInput("edge", 0, np.zeros(3), np.array([1e9, 0.0, 0.0]), np.ones(2), 1.0)]
+    ObstacleSet.from_inputs(edge)  # the domain's edge is accepted
 
 
 def test_cycle_takes_a_set_or_a_list_and_brakes_on_invalid_obstacles():

@@ -185,7 +185,8 @@ def test_inside_an_obstacle_brakes_and_gets_out():
             break
         robot.step(out.command, DT)
     assert emergency_speeds, "never flagged EMERGENCY_BRAKE"
-    assert emergency_speeds[-1] < 0.3, "did not brake"
+    # It brakes while it would go deeper; once it is leaving, it keeps leaving (#14).
+    assert min(emergency_speeds) < 0.3, "did not brake"
     assert out.status is not CycleStatus.EMERGENCY_BRAKE, "never got out"
     assert clearance(robot, inside, t, params.offset) > radius - 0.2 - 1e-6
 

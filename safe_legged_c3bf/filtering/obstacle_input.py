@@ -18,6 +18,7 @@ from functools import cached_property
 import numpy as np
 
 from safe_legged_c3bf.c3bf import InvalidInputError, Obstacles, Plane
+from safe_legged_c3bf.c3bf.domain import MAX_MAGNITUDE
 
 _VERTICAL = frozenset({Plane.VERTICAL})
 
@@ -112,8 +113,9 @@ class ObstacleSet:
             extent: ``(n,)`` extents (m).
 
         Raises:
-            InvalidInputError: wrong shapes, a non-finite number, a semi-axis <= 0 or an
-                unknown plane (the same rules as :meth:`ObstacleInput.is_valid`).
+            InvalidInputError: wrong shapes, a non-finite number, a semi-axis <= 0, an
+                unknown plane (the rules of :meth:`ObstacleInput.is_valid`), or a centre,
+                velocity or semi-axis beyond the C3BF library's domain (1e9).
 
         """
         ids = tuple(str(i) for i in ids)
@@ -136,6 +138,12 @@ class ObstacleSet:
         )
         if not ok:
             raise InvalidInputError("obstacle with NaN/Inf, a semi-axis <= 0 or an unknown plane")
+        largest = max(np.abs(c).max(initial=0.0), np.abs(v).max(initial=0.0), ax.max(initial=0.0))
+        if largest > MAX_MAGNITUDE:
+            raise InvalidInputError(
+                f"obstacle number {largest:.3g} beyond the C3BF library's domain "
+                f"(|x| <= {MAX_MAGNITUDE:g} m, m/s)"
+            )
         arrays = (pl.astype(np.intp), c, v, ax.max(axis=1), ext)
         for arr in arrays:
             arr.setflags(write=False)

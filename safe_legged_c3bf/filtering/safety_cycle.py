@@ -69,7 +69,7 @@ _FROM_FILTER = {
     FilterStatus.ACTIVE: CycleStatus.ACTIVE,
     FilterStatus.RELAXED: CycleStatus.RELAXED,
     FilterStatus.EMERGENCY: CycleStatus.EMERGENCY_BRAKE,
-    FilterStatus.FAILSAFE: CycleStatus.EMERGENCY_BRAKE,  # solver failure: brake input
+    FilterStatus.FAILSAFE: CycleStatus.EMERGENCY_BRAKE,  # solver failure: brake_decel
 }
 
 
@@ -333,6 +333,10 @@ class SafetyFilterCycle:
             )
         except InvalidInputError as err:
             return self._braked(dt, CycleStatus.INVALID_INPUT, f"rejected input: {err}", ref,
+                                ref_stale, u_ref)
+        if result.status is FilterStatus.FAILSAFE:  # the solver failed: brake, known profile
+            return self._braked(dt, CycleStatus.EMERGENCY_BRAKE,
+                                _with_ref(f"{result.message}: braking", ref_stale), ref,
                                 ref_stale, u_ref)
         u = result.u_safe
         new_v = v.copy()
