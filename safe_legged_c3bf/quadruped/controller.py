@@ -164,20 +164,59 @@ class QuadrupedMpcController:
         dq: np.ndarray,
         command: VelocityCommand,
     ) -> JointCommand:
-        """Return the motor command for time ``t`` (s) given the measured state."""
-        p = self.params
+        """Return the motor command for time ``t`` (s) given the measured state.
+
+        Steps: input check and time step, state estimate, command filtering, gait phase,
+        ground and height target, integral action, swing footholds, MPC (when due), and the
+        joint command (stance and swing targets, feed-forward torques, gains).
+        """
         q = np.asarray(q, dtype=float).reshape(12)
         dq = np.asarray(dq, dtype=float).reshape(12)
-        checksum = (
-            base.position.sum()
-            + base.orientation.sum()
-            + base.linear_velocity.sum()
-            + base.angular_velocity.sum()
-            + q.sum()
-            + dq.sum()
-        )
-        if not (math.isfinite(float(checksum)) and math.isfinite(t)):
+        if not _inputs_finite(t, base, q, dq):
             return self._damping_command(q)
+        dt = self._advance_clock(t)
+
+        # ---- state estimate
+        body = estimate_body(base, self._com_offset)
+        feet_b, jac = kin.leg_kinematics(q)
+        feet_w = feet_b @ body.rotation.T + body.position
+
+        # ---- command, gait phase, ground and height target
+        vx, vy, wz = self._filter_command(command, dt)
+        contacts, progress, t_td = self._advance_gait(t, body, feet_w)
+        ground = self._update_height_target(command, body, feet_w, contacts, dt)
+        trotting = self._gait.mode is GaitMode.TROT
+        yaw = body.yaw
+        cy, sy = math.cos(yaw), math.sin(yaw)
+        vx, vy, wz = self._integral_action(body, ground, dt, trotting, cy, sy, vx, vy, wz)
+        v_des_w = np.array([cy * vx - sy * vy, sy * vx + cy * vy, self._height_rate])
+
+        # ---- swing feet: footholds (odom) of the legs in the air
+        air_legs = [i for i, c in enumerate(contacts.tolist()) if not c] if trotting else []
+        if air_legs:
+            self._update_footholds(air_legs, body, t_td, v_des_w, wz, ground)
+
+        # ---- MPC: at mpc_period intervals, at contact changes and at the first update
+        changed = bool((contacts != self._prev_contacts).any())
+        if (
+            t - self._last_mpc_time >= self.params.mpc_period - 1e-9
+            or changed
+            or self.last_solution is None
+        ):
+            self._solve_mpc(body, feet_w, self.last_footholds, ground, wz, vx, vy)
+            self._last_mpc_time = t
+        self._prev_contacts = contacts
+
+        # ---- joint commands
+        return self._joint_command(
+            q, body, feet_b, feet_w, jac, contacts, progress, air_legs, ground, v_des_w, wz
+        )
+
+    def _advance_clock(self, t: float) -> float:
+        """Return the time step (s) since the last update, at most 0.05 s.
+
+        It is 0 at the first update, and when ``t`` went backwards (the controller resets).
+        """
         if self._t_prev is None or t < self._t_prev - 1e-9:
             if self._t_prev is not None:
                 self.reset()
@@ -185,21 +224,43 @@ class QuadrupedMpcController:
         else:
             dt = min(t - self._t_prev, 0.05)
         self._t_prev = t
+        return dt
 
-        body = estimate_body(base, self._com_offset)
-        rot = body.rotation
-        feet_b, jac = kin.leg_kinematics(q)
-        feet_w = feet_b @ rot.T + body.position
+    def _advance_gait(
+        self, t: float, body: BodyEstimate, feet_w: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Advance the trot schedule; return its (contacts, swing progress, time to touch-down).
 
-        # ---- command: clip, rate-limit, integrate the height target
-        vx, vy, wz = self._filter_command(command, dt)
-        motion = self._motion_requested
+        Also records the lift-off points of the legs that just left the ground, and the
+        standing anchor (centre of mass x, y and yaw held while standing).
+        """
+        self._gait.update(t, self._motion_requested)
+        contacts, progress, t_td = self._gait.snapshot()
+        lifted = self._prev_contacts & ~contacts  # _prev_contacts: set by update() after MPC
+        self._liftoff[lifted] = feet_w[lifted]
+        if self._gait.mode is not GaitMode.TROT:
+            if self._anchor is None:
+                self._anchor = (float(body.com[0]), float(body.com[1]), body.yaw)
+        else:
+            self._anchor = None
+        return contacts, progress, t_td
+
+    def _update_height_target(
+        self,
+        command: VelocityCommand,
+        body: BodyEstimate,
+        feet_w: np.ndarray,
+        contacts: np.ndarray,
+        dt: float,
+    ) -> float:
+        """Update the ground estimate and integrate ``vz`` into the height target; return ground.
+
+        The target starts at the measured height and stays within [min_body_height,
+        max_body_height]; ``_height_rate`` is its rate of change over this step.
+        """
+        p = self.params
         vz = float(command.vz) if math.isfinite(command.vz) else 0.0
         vz = min(p.max_vertical_speed, max(-p.max_vertical_speed, vz))
-
-        # ---- gait
-        self._gait.update(t, motion)
-        contacts, progress, t_td = self._gait.snapshot()
         ground = self._ground.update(feet_w, contacts, dt)
         if self._height is None:
             self._height = min(
@@ -208,55 +269,7 @@ class QuadrupedMpcController:
         new_height = min(p.max_body_height, max(p.min_body_height, self._height + vz * dt))
         self._height_rate = (new_height - self._height) / dt if dt > 0 else 0.0
         self._height = new_height
-        lifted = self._prev_contacts & ~contacts
-        self._liftoff[lifted] = feet_w[lifted]
-        trotting = self._gait.mode is GaitMode.TROT
-        if not trotting:
-            if self._anchor is None:
-                self._anchor = (float(body.com[0]), float(body.com[1]), body.yaw)
-        else:
-            self._anchor = None
-
-        yaw = body.yaw
-        cy, sy = math.cos(yaw), math.sin(yaw)
-        vx, vy, wz = self._integral_action(body, ground, dt, trotting, cy, sy, vx, vy, wz)
-        v_des_w = np.array([cy * vx - sy * vy, sy * vx + cy * vy, self._height_rate])
-
-        # ---- swing feet: footholds (odom) of the legs in the air
-        air_legs = [i for i, c in enumerate(contacts.tolist()) if not c] if trotting else []
-        footholds = self.last_footholds
-        if air_legs:
-            self._update_footholds(air_legs, body, t_td, v_des_w, wz, ground)
-
-        # ---- MPC
-        changed = bool((contacts != self._prev_contacts).any())
-        if t - self._last_mpc_time >= p.mpc_period - 1e-9 or changed or self.last_solution is None:
-            self._solve_mpc(body, feet_w, footholds, ground, wz, vx, vy)
-            self._last_mpc_time = t
-        self._prev_contacts = contacts
-
-        # ---- joint commands
-        jinv = kin.jacobian_inverses(jac)
-        wb0, wb1, wb2 = (rot[2] * wz).tolist()  # R^T (0, 0, wz)
-        v_des_b = v_des_w @ rot
-        # stance feet stay put in odom while the body moves as commanded
-        foot_vb = np.empty((4, 3))
-        fx, fy, fz = feet_b[:, 0], feet_b[:, 1], feet_b[:, 2]
-        foot_vb[:, 0] = -v_des_b[0] - (wb1 * fz - wb2 * fy)
-        foot_vb[:, 1] = -v_des_b[1] - (wb2 * fx - wb0 * fz)
-        foot_vb[:, 2] = -v_des_b[2] - (wb0 * fy - wb1 * fx)
-        q_cmd = q.copy() if p.stance_kp == 0.0 else self._stance_posture(body, feet_w, ground)
-        if air_legs:
-            self._swing_targets(air_legs, body, progress, q_cmd, foot_vb)
-        dq_cmd = (jinv @ foot_vb[:, :, None]).reshape(12)
-        f_body = self._forces @ rot
-        tau = -(f_body[:, None, :] @ jac).reshape(4, 3)
-        tau[~contacts] = 0.0
-        tau = tau.reshape(12) + kin.gravity_torques(q, rot[2] * -_GRAVITY)
-        stance_j = np.repeat(contacts, 3)
-        kp = np.where(stance_j, p.stance_kp, p.swing_kp)
-        kd = np.where(stance_j, p.stance_kd, p.swing_kd)
-        return JointCommand(self.joint_names, q_cmd, dq_cmd, kp, kd, tau)
+        return ground
 
     def _integral_action(
         self,
@@ -402,6 +415,51 @@ class QuadrupedMpcController:
             )
             q_cmd[3 * leg : 3 * leg + 3] = kin.leg_inverse_kinematics(leg, foot_b)
 
+    def _joint_command(
+        self,
+        q: np.ndarray,
+        body: BodyEstimate,
+        feet_b: np.ndarray,
+        feet_w: np.ndarray,
+        jac: np.ndarray,
+        contacts: np.ndarray,
+        progress: np.ndarray,
+        air_legs: list[int],
+        ground: float,
+        v_des_w: np.ndarray,
+        wz: float,
+    ) -> JointCommand:
+        """Assemble the motor command from the stance and swing targets and the MPC forces.
+
+        Stance legs: joint velocities that keep the feet put in odom while the body moves at
+        ``v_des_w`` and ``wz`` (for the damping), posture targets when ``stance_kp`` > 0, and
+        the torques ``-J^T R^T f`` of the MPC forces. Swing legs: the swing trajectory's
+        joint targets and velocities. Every leg: the torques that hold its own weight.
+        """
+        p = self.params
+        rot = body.rotation
+        jinv = kin.jacobian_inverses(jac)
+        wb0, wb1, wb2 = (rot[2] * wz).tolist()  # R^T (0, 0, wz)
+        v_des_b = v_des_w @ rot
+        # stance feet stay put in odom while the body moves as commanded
+        foot_vb = np.empty((4, 3))
+        fx, fy, fz = feet_b[:, 0], feet_b[:, 1], feet_b[:, 2]
+        foot_vb[:, 0] = -v_des_b[0] - (wb1 * fz - wb2 * fy)
+        foot_vb[:, 1] = -v_des_b[1] - (wb2 * fx - wb0 * fz)
+        foot_vb[:, 2] = -v_des_b[2] - (wb0 * fy - wb1 * fx)
+        q_cmd = q.copy() if p.stance_kp == 0.0 else self._stance_posture(body, feet_w, ground)
+        if air_legs:
+            self._swing_targets(air_legs, body, progress, q_cmd, foot_vb)
+        dq_cmd = (jinv @ foot_vb[:, :, None]).reshape(12)
+        f_body = self._forces @ rot
+        tau = -(f_body[:, None, :] @ jac).reshape(4, 3)
+        tau[~contacts] = 0.0
+        tau = tau.reshape(12) + kin.gravity_torques(q, rot[2] * -_GRAVITY)
+        stance_j = np.repeat(contacts, 3)
+        kp = np.where(stance_j, p.stance_kp, p.swing_kp)
+        kd = np.where(stance_j, p.stance_kd, p.swing_kd)
+        return JointCommand(self.joint_names, q_cmd, dq_cmd, kp, kd, tau)
+
     def _stance_posture(self, body: BodyEstimate, feet_w: np.ndarray, ground: float) -> np.ndarray:
         """Joint targets that put the body level at the target height over the feet."""
         yaw = body.yaw
@@ -487,3 +545,16 @@ class QuadrupedMpcController:
         return JointCommand(
             self.joint_names, q_safe, zeros, zeros, np.full(12, p.fault_damping_kd), zeros.copy()
         )
+
+
+def _inputs_finite(t: float, base: BaseState, q: np.ndarray, dq: np.ndarray) -> bool:
+    """True when the time, the base state and the joint states are all finite."""
+    checksum = (
+        base.position.sum()
+        + base.orientation.sum()
+        + base.linear_velocity.sum()
+        + base.angular_velocity.sum()
+        + q.sum()
+        + dq.sum()
+    )
+    return math.isfinite(float(checksum)) and math.isfinite(t)
