@@ -15,7 +15,8 @@ Every :meth:`QuadrupedMpcController.update` (``control_period``, default 2 ms):
    body includes the legs, so without them the feet would not produce the planned forces).
 
 Slow integral action on the body height, the velocity and the yaw rate removes the steady
-state errors the lumped model leaves.
+state errors the lumped model leaves (the command filter and the integral action are in
+:mod:`~safe_legged_c3bf.quadruped.command_shaping`).
 
 The returned :class:`JointCommand` is meant for motor drivers that apply
 ``tau = kp (q* - q) + kd (dq* - dq) + tau_ff`` at a higher rate. The controller holds no ROS
@@ -33,6 +34,7 @@ from safe_legged_c3bf.base_state import BaseState
 from safe_legged_c3bf.gait_controller import VelocityCommand
 from safe_legged_c3bf.joint_command import JointCommand
 from safe_legged_c3bf.quadruped import a1_kinematics as kin
+from safe_legged_c3bf.quadruped.command_shaping import CommandFilter, IntegralAction
 from safe_legged_c3bf.quadruped.convex_mpc import ConvexMpc, MpcSolution
 from safe_legged_c3bf.quadruped.gait_schedule import GaitMode, TrotSchedule
 from safe_legged_c3bf.quadruped.params import QuadrupedParams
@@ -46,7 +48,6 @@ from safe_legged_c3bf.rotations import wrap_angle
 
 #: the package's parameter file (in the config directory)
 DEFAULT_CONFIG = "quadruped_controller.yaml"
-_MOTION_EPS = 1e-3
 _GRAVITY = 9.81
 #: time constant of the ground-height filter (s)
 _GROUND_TIME_CONSTANT = 0.1
@@ -89,10 +90,11 @@ class QuadrupedMpcController:
         self._gait = TrotSchedule(p.gait_period, p.duty_factor, p.stand_delay)
         self._ground = GroundHeightFilter(_GROUND_TIME_CONSTANT, p.foot_radius)
         self._com_offset = np.array(p.com_offset, dtype=float)
-        self._cmd_limits = np.array([p.max_forward_speed, p.max_lateral_speed, p.max_yaw_rate])
-        self._cmd_accel = np.array(
-            [p.max_linear_acceleration, p.max_linear_acceleration, p.max_yaw_acceleration]
+        self._command_filter = CommandFilter(
+            [p.max_forward_speed, p.max_lateral_speed, p.max_yaw_rate],
+            [p.max_linear_acceleration, p.max_linear_acceleration, p.max_yaw_acceleration],
         )
+        self._integral = IntegralAction(p)
         n = p.mpc_horizon
         self._k_states = np.arange(1, n + 1, dtype=float)
         self._k_inputs = np.arange(n, dtype=float)
@@ -118,13 +120,10 @@ class QuadrupedMpcController:
         self._gait.reset()
         self._ground.reset()
         self._t_prev: float | None = None
-        self._cmd = np.zeros(3)  # rate-limited (vx, vy, yaw_rate)
-        self._motion_requested = False
+        self._command_filter.reset()
+        self._integral.reset()
         self._height: float | None = None
         self._height_rate = 0.0
-        self._height_correction = 0.0  # integral action on the body height (m)
-        self._velocity_correction = np.zeros(3)  # integral action on (vx, vy, yaw_rate)
-        self._command_settled = True
         self._forces = np.zeros((4, 3))
         self._last_mpc_time = -np.inf
         self._prev_contacts = np.ones(4, dtype=bool)
@@ -153,7 +152,7 @@ class QuadrupedMpcController:
     @property
     def filtered_command(self) -> np.ndarray:
         """The rate-limited (vx, vy, yaw_rate) being tracked."""
-        return self._cmd.copy()
+        return self._command_filter.value.copy()
 
     # ------------------------------------------------------------------ update
     def update(
@@ -182,13 +181,19 @@ class QuadrupedMpcController:
         feet_w = feet_b @ body.rotation.T + body.position
 
         # ---- command, gait phase, ground and height target
-        vx, vy, wz = self._filter_command(command, dt)
+        vx, vy, wz = self._command_filter.update(command, dt)
         contacts, progress, t_td = self._advance_gait(t, body, feet_w)
         ground = self._update_height_target(command, body, feet_w, contacts, dt)
         trotting = self._gait.mode is GaitMode.TROT
+
+        # ---- integral action on the height, velocity and yaw-rate references
         yaw = body.yaw
         cy, sy = math.cos(yaw), math.sin(yaw)
-        vx, vy, wz = self._integral_action(body, ground, dt, trotting, cy, sy, vx, vy, wz)
+        height_error = self._height - (float(body.position[2]) - ground)
+        settled = self._command_filter.settled
+        vx, vy, wz = self._integral.update(
+            height_error, body, dt, trotting, settled, cy, sy, vx, vy, wz
+        )
         v_des_w = np.array([cy * vx - sy * vy, sy * vx + cy * vy, self._height_rate])
 
         # ---- swing feet: footholds (odom) of the legs in the air
@@ -234,7 +239,7 @@ class QuadrupedMpcController:
         Also records the lift-off points of the legs that just left the ground, and the
         standing anchor (centre of mass x, y and yaw held while standing).
         """
-        self._gait.update(t, self._motion_requested)
+        self._gait.update(t, self._command_filter.motion_requested)
         contacts, progress, t_td = self._gait.snapshot()
         lifted = self._prev_contacts & ~contacts  # _prev_contacts: set by update() after MPC
         self._liftoff[lifted] = feet_w[lifted]
@@ -270,73 +275,6 @@ class QuadrupedMpcController:
         self._height_rate = (new_height - self._height) / dt if dt > 0 else 0.0
         self._height = new_height
         return ground
-
-    def _integral_action(
-        self,
-        body: BodyEstimate,
-        ground: float,
-        dt: float,
-        trotting: bool,
-        cy: float,
-        sy: float,
-        vx: float,
-        vy: float,
-        wz: float,
-    ) -> tuple[float, float, float]:
-        """Integrate tracking errors into reference corrections; return corrected (vx, vy, wz).
-
-        The height correction removes the steady-state height error (the MPC's lumped
-        model ignores the legs' own weight); the velocity corrections remove steady-state
-        velocity and yaw-rate errors while trotting with a settled command, and are cleared
-        when standing.
-        """
-        p = self.params
-        height_error = self._height - (float(body.position[2]) - ground)
-        lim = p.max_height_correction
-        self._height_correction = min(
-            lim, max(-lim, self._height_correction + p.height_integral_gain * height_error * dt)
-        )
-        corr = self._velocity_correction
-        if not trotting:
-            corr[:] = 0.0
-            return vx, vy, wz
-        if self._command_settled:
-            v0, v1 = float(body.velocity[0]), float(body.velocity[1])
-            errors = (
-                vx - (cy * v0 + sy * v1),
-                vy - (-sy * v0 + cy * v1),
-                wz - float(body.angular_velocity[2]),
-            )
-            gains = (p.velocity_integral_gain, p.velocity_integral_gain, p.yaw_rate_integral_gain)
-            limits = (
-                p.max_velocity_correction,
-                p.max_velocity_correction,
-                p.max_yaw_rate_correction,
-            )
-            for i in range(3):
-                value = float(corr[i]) + gains[i] * errors[i] * dt
-                corr[i] = min(limits[i], max(-limits[i], value))
-        return vx + float(corr[0]), vy + float(corr[1]), wz + float(corr[2])
-
-    def _filter_command(self, command: VelocityCommand, dt: float) -> tuple[float, float, float]:
-        """Clip and rate-limit (vx, vy, yaw_rate); set ``_motion_requested``."""
-        out = []
-        moving = False
-        settled = True
-        for i, value in enumerate((command.vx, command.vy, command.yaw_rate)):
-            value = float(value) if math.isfinite(value) else 0.0
-            limit = float(self._cmd_limits[i])
-            target = min(limit, max(-limit, value))
-            step = float(self._cmd_accel[i]) * dt
-            current = float(self._cmd[i])
-            current += min(step, max(-step, target - current))
-            settled = settled and abs(target - current) < 1e-9
-            self._cmd[i] = current
-            moving = moving or abs(target) > _MOTION_EPS or abs(current) > _MOTION_EPS
-            out.append(current)
-        self._motion_requested = moving
-        self._command_settled = settled
-        return out[0], out[1], out[2]
 
     def _update_footholds(
         self,
@@ -506,7 +444,7 @@ class QuadrupedMpcController:
             p.min_body_height,
             p.max_body_height,
         )
-        x_ref[:, 5] = ground + heights + self._height_correction + self._com_offset[2]
+        x_ref[:, 5] = ground + heights + self._integral.height_correction + self._com_offset[2]
         x_ref[:, 11] = np.diff(np.concatenate([[self._height], heights])) / dt
 
         # centre of mass at the input steps k = 0..N-1
