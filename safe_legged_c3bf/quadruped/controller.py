@@ -15,7 +15,8 @@ Every :meth:`QuadrupedMpcController.update` (``control_period``, default 2 ms):
    body includes the legs, so without them the feet would not produce the planned forces).
 
 Slow integral action on the body height, the velocity and the yaw rate removes the steady
-state errors the lumped model leaves.
+state errors the lumped model leaves (the command filter and the integral action are in
+:mod:`~safe_legged_c3bf.quadruped.command_shaping`).
 
 The returned :class:`JointCommand` is meant for motor drivers that apply
 ``tau = kp (q* - q) + kd (dq* - dq) + tau_ff`` at a higher rate. The controller holds no ROS
@@ -33,6 +34,7 @@ from safe_legged_c3bf.base_state import BaseState
 from safe_legged_c3bf.gait_controller import VelocityCommand
 from safe_legged_c3bf.joint_command import JointCommand
 from safe_legged_c3bf.quadruped import a1_kinematics as kin
+from safe_legged_c3bf.quadruped.command_shaping import CommandFilter, IntegralAction
 from safe_legged_c3bf.quadruped.convex_mpc import ConvexMpc, MpcSolution
 from safe_legged_c3bf.quadruped.gait_schedule import GaitMode, TrotSchedule
 from safe_legged_c3bf.quadruped.params import QuadrupedParams
@@ -46,7 +48,6 @@ from safe_legged_c3bf.rotations import wrap_angle
 
 #: the package's parameter file (in the config directory)
 DEFAULT_CONFIG = "quadruped_controller.yaml"
-_MOTION_EPS = 1e-3
 _GRAVITY = 9.81
 #: time constant of the ground-height filter (s)
 _GROUND_TIME_CONSTANT = 0.1
@@ -89,10 +90,11 @@ class QuadrupedMpcController:
         self._gait = TrotSchedule(p.gait_period, p.duty_factor, p.stand_delay)
         self._ground = GroundHeightFilter(_GROUND_TIME_CONSTANT, p.foot_radius)
         self._com_offset = np.array(p.com_offset, dtype=float)
-        self._cmd_limits = np.array([p.max_forward_speed, p.max_lateral_speed, p.max_yaw_rate])
-        self._cmd_accel = np.array(
-            [p.max_linear_acceleration, p.max_linear_acceleration, p.max_yaw_acceleration]
+        self._command_filter = CommandFilter(
+            [p.max_forward_speed, p.max_lateral_speed, p.max_yaw_rate],
+            [p.max_linear_acceleration, p.max_linear_acceleration, p.max_yaw_acceleration],
         )
+        self._integral = IntegralAction(p)
         n = p.mpc_horizon
         self._k_states = np.arange(1, n + 1, dtype=float)
         self._k_inputs = np.arange(n, dtype=float)
@@ -118,13 +120,10 @@ class QuadrupedMpcController:
         self._gait.reset()
         self._ground.reset()
         self._t_prev: float | None = None
-        self._cmd = np.zeros(3)  # rate-limited (vx, vy, yaw_rate)
-        self._motion_requested = False
+        self._command_filter.reset()
+        self._integral.reset()
         self._height: float | None = None
         self._height_rate = 0.0
-        self._height_correction = 0.0  # integral action on the body height (m)
-        self._velocity_correction = np.zeros(3)  # integral action on (vx, vy, yaw_rate)
-        self._command_settled = True
         self._forces = np.zeros((4, 3))
         self._last_mpc_time = -np.inf
         self._prev_contacts = np.ones(4, dtype=bool)
@@ -153,7 +152,7 @@ class QuadrupedMpcController:
     @property
     def filtered_command(self) -> np.ndarray:
         """The rate-limited (vx, vy, yaw_rate) being tracked."""
-        return self._cmd.copy()
+        return self._command_filter.value.copy()
 
     # ------------------------------------------------------------------ update
     def update(
@@ -164,20 +163,65 @@ class QuadrupedMpcController:
         dq: np.ndarray,
         command: VelocityCommand,
     ) -> JointCommand:
-        """Return the motor command for time ``t`` (s) given the measured state."""
-        p = self.params
+        """Return the motor command for time ``t`` (s) given the measured state.
+
+        Steps: input check and time step, state estimate, command filtering, gait phase,
+        ground and height target, integral action, swing footholds, MPC (when due), and the
+        joint command (stance and swing targets, feed-forward torques, gains).
+        """
         q = np.asarray(q, dtype=float).reshape(12)
         dq = np.asarray(dq, dtype=float).reshape(12)
-        checksum = (
-            base.position.sum()
-            + base.orientation.sum()
-            + base.linear_velocity.sum()
-            + base.angular_velocity.sum()
-            + q.sum()
-            + dq.sum()
-        )
-        if not (math.isfinite(float(checksum)) and math.isfinite(t)):
+        if not _inputs_finite(t, base, q, dq):
             return self._damping_command(q)
+        dt = self._advance_clock(t)
+
+        # ---- state estimate
+        body = estimate_body(base, self._com_offset)
+        feet_b, jac = kin.leg_kinematics(q)
+        feet_w = feet_b @ body.rotation.T + body.position
+
+        # ---- command, gait phase, ground and height target
+        vx, vy, wz = self._command_filter.update(command, dt)
+        contacts, progress, t_td = self._advance_gait(t, body, feet_w)
+        ground = self._update_height_target(command, body, feet_w, contacts, dt)
+        trotting = self._gait.mode is GaitMode.TROT
+
+        # ---- integral action on the height, velocity and yaw-rate references
+        yaw = body.yaw
+        cy, sy = math.cos(yaw), math.sin(yaw)
+        height_error = self._height - (float(body.position[2]) - ground)
+        settled = self._command_filter.settled
+        vx, vy, wz = self._integral.update(
+            height_error, body, dt, trotting, settled, cy, sy, vx, vy, wz
+        )
+        v_des_w = np.array([cy * vx - sy * vy, sy * vx + cy * vy, self._height_rate])
+
+        # ---- swing feet: footholds (odom) of the legs in the air
+        air_legs = [i for i, c in enumerate(contacts.tolist()) if not c] if trotting else []
+        if air_legs:
+            self._update_footholds(air_legs, body, t_td, v_des_w, wz, ground)
+
+        # ---- MPC: at mpc_period intervals, at contact changes and at the first update
+        changed = bool((contacts != self._prev_contacts).any())
+        if (
+            t - self._last_mpc_time >= self.params.mpc_period - 1e-9
+            or changed
+            or self.last_solution is None
+        ):
+            self._solve_mpc(body, feet_w, self.last_footholds, ground, wz, vx, vy)
+            self._last_mpc_time = t
+        self._prev_contacts = contacts
+
+        # ---- joint commands
+        return self._joint_command(
+            q, body, feet_b, feet_w, jac, contacts, progress, air_legs, ground, v_des_w, wz
+        )
+
+    def _advance_clock(self, t: float) -> float:
+        """Return the time step (s) since the last update, at most 0.05 s.
+
+        It is 0 at the first update, and when ``t`` went backwards (the controller resets).
+        """
         if self._t_prev is None or t < self._t_prev - 1e-9:
             if self._t_prev is not None:
                 self.reset()
@@ -185,21 +229,43 @@ class QuadrupedMpcController:
         else:
             dt = min(t - self._t_prev, 0.05)
         self._t_prev = t
+        return dt
 
-        body = estimate_body(base, self._com_offset)
-        rot = body.rotation
-        feet_b, jac = kin.leg_kinematics(q)
-        feet_w = feet_b @ rot.T + body.position
+    def _advance_gait(
+        self, t: float, body: BodyEstimate, feet_w: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Advance the trot schedule; return its (contacts, swing progress, time to touch-down).
 
-        # ---- command: clip, rate-limit, integrate the height target
-        vx, vy, wz = self._filter_command(command, dt)
-        motion = self._motion_requested
+        Also records the lift-off points of the legs that just left the ground, and the
+        standing anchor (centre of mass x, y and yaw held while standing).
+        """
+        self._gait.update(t, self._command_filter.motion_requested)
+        contacts, progress, t_td = self._gait.snapshot()
+        lifted = self._prev_contacts & ~contacts  # _prev_contacts: set by update() after MPC
+        self._liftoff[lifted] = feet_w[lifted]
+        if self._gait.mode is not GaitMode.TROT:
+            if self._anchor is None:
+                self._anchor = (float(body.com[0]), float(body.com[1]), body.yaw)
+        else:
+            self._anchor = None
+        return contacts, progress, t_td
+
+    def _update_height_target(
+        self,
+        command: VelocityCommand,
+        body: BodyEstimate,
+        feet_w: np.ndarray,
+        contacts: np.ndarray,
+        dt: float,
+    ) -> float:
+        """Update the ground estimate and integrate ``vz`` into the height target; return ground.
+
+        The target starts at the measured height and stays within [min_body_height,
+        max_body_height]; ``_height_rate`` is its rate of change over this step.
+        """
+        p = self.params
         vz = float(command.vz) if math.isfinite(command.vz) else 0.0
         vz = min(p.max_vertical_speed, max(-p.max_vertical_speed, vz))
-
-        # ---- gait
-        self._gait.update(t, motion)
-        contacts, progress, t_td = self._gait.snapshot()
         ground = self._ground.update(feet_w, contacts, dt)
         if self._height is None:
             self._height = min(
@@ -208,122 +274,7 @@ class QuadrupedMpcController:
         new_height = min(p.max_body_height, max(p.min_body_height, self._height + vz * dt))
         self._height_rate = (new_height - self._height) / dt if dt > 0 else 0.0
         self._height = new_height
-        lifted = self._prev_contacts & ~contacts
-        self._liftoff[lifted] = feet_w[lifted]
-        trotting = self._gait.mode is GaitMode.TROT
-        if not trotting:
-            if self._anchor is None:
-                self._anchor = (float(body.com[0]), float(body.com[1]), body.yaw)
-        else:
-            self._anchor = None
-
-        yaw = body.yaw
-        cy, sy = math.cos(yaw), math.sin(yaw)
-        vx, vy, wz = self._integral_action(body, ground, dt, trotting, cy, sy, vx, vy, wz)
-        v_des_w = np.array([cy * vx - sy * vy, sy * vx + cy * vy, self._height_rate])
-
-        # ---- swing feet: footholds (odom) of the legs in the air
-        air_legs = [i for i, c in enumerate(contacts.tolist()) if not c] if trotting else []
-        footholds = self.last_footholds
-        if air_legs:
-            self._update_footholds(air_legs, body, t_td, v_des_w, wz, ground)
-
-        # ---- MPC
-        changed = bool((contacts != self._prev_contacts).any())
-        if t - self._last_mpc_time >= p.mpc_period - 1e-9 or changed or self.last_solution is None:
-            self._solve_mpc(body, feet_w, footholds, ground, wz, vx, vy)
-            self._last_mpc_time = t
-        self._prev_contacts = contacts
-
-        # ---- joint commands
-        jinv = kin.jacobian_inverses(jac)
-        wb0, wb1, wb2 = (rot[2] * wz).tolist()  # R^T (0, 0, wz)
-        v_des_b = v_des_w @ rot
-        # stance feet stay put in odom while the body moves as commanded
-        foot_vb = np.empty((4, 3))
-        fx, fy, fz = feet_b[:, 0], feet_b[:, 1], feet_b[:, 2]
-        foot_vb[:, 0] = -v_des_b[0] - (wb1 * fz - wb2 * fy)
-        foot_vb[:, 1] = -v_des_b[1] - (wb2 * fx - wb0 * fz)
-        foot_vb[:, 2] = -v_des_b[2] - (wb0 * fy - wb1 * fx)
-        q_cmd = q.copy() if p.stance_kp == 0.0 else self._stance_posture(body, feet_w, ground)
-        if air_legs:
-            self._swing_targets(air_legs, body, progress, q_cmd, foot_vb)
-        dq_cmd = (jinv @ foot_vb[:, :, None]).reshape(12)
-        f_body = self._forces @ rot
-        tau = -(f_body[:, None, :] @ jac).reshape(4, 3)
-        tau[~contacts] = 0.0
-        tau = tau.reshape(12) + kin.gravity_torques(q, rot[2] * -_GRAVITY)
-        stance_j = np.repeat(contacts, 3)
-        kp = np.where(stance_j, p.stance_kp, p.swing_kp)
-        kd = np.where(stance_j, p.stance_kd, p.swing_kd)
-        return JointCommand(self.joint_names, q_cmd, dq_cmd, kp, kd, tau)
-
-    def _integral_action(
-        self,
-        body: BodyEstimate,
-        ground: float,
-        dt: float,
-        trotting: bool,
-        cy: float,
-        sy: float,
-        vx: float,
-        vy: float,
-        wz: float,
-    ) -> tuple[float, float, float]:
-        """Integrate tracking errors into reference corrections; return corrected (vx, vy, wz).
-
-        The height correction removes the steady-state height error (the MPC's lumped
-        model ignores the legs' own weight); the velocity corrections remove steady-state
-        velocity and yaw-rate errors while trotting with a settled command, and are cleared
-        when standing.
-        """
-        p = self.params
-        height_error = self._height - (float(body.position[2]) - ground)
-        lim = p.max_height_correction
-        self._height_correction = min(
-            lim, max(-lim, self._height_correction + p.height_integral_gain * height_error * dt)
-        )
-        corr = self._velocity_correction
-        if not trotting:
-            corr[:] = 0.0
-            return vx, vy, wz
-        if self._command_settled:
-            v0, v1 = float(body.velocity[0]), float(body.velocity[1])
-            errors = (
-                vx - (cy * v0 + sy * v1),
-                vy - (-sy * v0 + cy * v1),
-                wz - float(body.angular_velocity[2]),
-            )
-            gains = (p.velocity_integral_gain, p.velocity_integral_gain, p.yaw_rate_integral_gain)
-            limits = (
-                p.max_velocity_correction,
-                p.max_velocity_correction,
-                p.max_yaw_rate_correction,
-            )
-            for i in range(3):
-                value = float(corr[i]) + gains[i] * errors[i] * dt
-                corr[i] = min(limits[i], max(-limits[i], value))
-        return vx + float(corr[0]), vy + float(corr[1]), wz + float(corr[2])
-
-    def _filter_command(self, command: VelocityCommand, dt: float) -> tuple[float, float, float]:
-        """Clip and rate-limit (vx, vy, yaw_rate); set ``_motion_requested``."""
-        out = []
-        moving = False
-        settled = True
-        for i, value in enumerate((command.vx, command.vy, command.yaw_rate)):
-            value = float(value) if math.isfinite(value) else 0.0
-            limit = float(self._cmd_limits[i])
-            target = min(limit, max(-limit, value))
-            step = float(self._cmd_accel[i]) * dt
-            current = float(self._cmd[i])
-            current += min(step, max(-step, target - current))
-            settled = settled and abs(target - current) < 1e-9
-            self._cmd[i] = current
-            moving = moving or abs(target) > _MOTION_EPS or abs(current) > _MOTION_EPS
-            out.append(current)
-        self._motion_requested = moving
-        self._command_settled = settled
-        return out[0], out[1], out[2]
+        return ground
 
     def _update_footholds(
         self,
@@ -402,6 +353,51 @@ class QuadrupedMpcController:
             )
             q_cmd[3 * leg : 3 * leg + 3] = kin.leg_inverse_kinematics(leg, foot_b)
 
+    def _joint_command(
+        self,
+        q: np.ndarray,
+        body: BodyEstimate,
+        feet_b: np.ndarray,
+        feet_w: np.ndarray,
+        jac: np.ndarray,
+        contacts: np.ndarray,
+        progress: np.ndarray,
+        air_legs: list[int],
+        ground: float,
+        v_des_w: np.ndarray,
+        wz: float,
+    ) -> JointCommand:
+        """Assemble the motor command from the stance and swing targets and the MPC forces.
+
+        Stance legs: joint velocities that keep the feet put in odom while the body moves at
+        ``v_des_w`` and ``wz`` (for the damping), posture targets when ``stance_kp`` > 0, and
+        the torques ``-J^T R^T f`` of the MPC forces. Swing legs: the swing trajectory's
+        joint targets and velocities. Every leg: the torques that hold its own weight.
+        """
+        p = self.params
+        rot = body.rotation
+        jinv = kin.jacobian_inverses(jac)
+        wb0, wb1, wb2 = (rot[2] * wz).tolist()  # R^T (0, 0, wz)
+        v_des_b = v_des_w @ rot
+        # stance feet stay put in odom while the body moves as commanded
+        foot_vb = np.empty((4, 3))
+        fx, fy, fz = feet_b[:, 0], feet_b[:, 1], feet_b[:, 2]
+        foot_vb[:, 0] = -v_des_b[0] - (wb1 * fz - wb2 * fy)
+        foot_vb[:, 1] = -v_des_b[1] - (wb2 * fx - wb0 * fz)
+        foot_vb[:, 2] = -v_des_b[2] - (wb0 * fy - wb1 * fx)
+        q_cmd = q.copy() if p.stance_kp == 0.0 else self._stance_posture(body, feet_w, ground)
+        if air_legs:
+            self._swing_targets(air_legs, body, progress, q_cmd, foot_vb)
+        dq_cmd = (jinv @ foot_vb[:, :, None]).reshape(12)
+        f_body = self._forces @ rot
+        tau = -(f_body[:, None, :] @ jac).reshape(4, 3)
+        tau[~contacts] = 0.0
+        tau = tau.reshape(12) + kin.gravity_torques(q, rot[2] * -_GRAVITY)
+        stance_j = np.repeat(contacts, 3)
+        kp = np.where(stance_j, p.stance_kp, p.swing_kp)
+        kd = np.where(stance_j, p.stance_kd, p.swing_kd)
+        return JointCommand(self.joint_names, q_cmd, dq_cmd, kp, kd, tau)
+
     def _stance_posture(self, body: BodyEstimate, feet_w: np.ndarray, ground: float) -> np.ndarray:
         """Joint targets that put the body level at the target height over the feet."""
         yaw = body.yaw
@@ -448,7 +444,7 @@ class QuadrupedMpcController:
             p.min_body_height,
             p.max_body_height,
         )
-        x_ref[:, 5] = ground + heights + self._height_correction + self._com_offset[2]
+        x_ref[:, 5] = ground + heights + self._integral.height_correction + self._com_offset[2]
         x_ref[:, 11] = np.diff(np.concatenate([[self._height], heights])) / dt
 
         # centre of mass at the input steps k = 0..N-1
@@ -487,3 +483,16 @@ class QuadrupedMpcController:
         return JointCommand(
             self.joint_names, q_safe, zeros, zeros, np.full(12, p.fault_damping_kd), zeros.copy()
         )
+
+
+def _inputs_finite(t: float, base: BaseState, q: np.ndarray, dq: np.ndarray) -> bool:
+    """True when the time, the base state and the joint states are all finite."""
+    checksum = (
+        base.position.sum()
+        + base.orientation.sum()
+        + base.linear_velocity.sum()
+        + base.angular_velocity.sum()
+        + q.sum()
+        + dq.sum()
+    )
+    return math.isfinite(float(checksum)) and math.isfinite(t)

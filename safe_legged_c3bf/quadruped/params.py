@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, fields
-from typing import Any
+from typing import Any, NoReturn
 
 # Composite rigid-body inertia (kg m^2) about the centre of mass, base_link axes, standing
 # posture, as PyBullet simulates the pybullet_data A1 (row-major 3x3).
@@ -21,6 +21,29 @@ A1_INERTIA = (
     0.0, 0.3586, 0.0,
     -0.0142, 0.0, 0.3868,
 )  # fmt: skip
+
+#: parameters that must be finite numbers > 0
+_POSITIVE_FIELDS = (
+    "control_period", "mpc_dt", "mpc_period", "mass", "friction_coefficient",
+    "max_normal_force", "gait_period", "stand_delay", "swing_height", "foot_radius",
+    "body_height", "min_body_height", "max_body_height", "max_forward_speed",
+    "max_lateral_speed", "max_yaw_rate", "max_vertical_speed",
+    "max_linear_acceleration", "max_yaw_acceleration", "osqp_eps_abs", "osqp_eps_rel",
+)  # fmt: skip
+#: parameters that must be finite numbers >= 0
+_NON_NEGATIVE_FIELDS = (
+    "min_normal_force", "foothold_velocity_gain", "max_foothold_offset", "weight_force",
+    "swing_kp", "swing_kd", "stance_kp", "stance_kd", "fault_damping_kd",
+    "velocity_integral_gain", "yaw_rate_integral_gain", "max_velocity_correction",
+    "max_yaw_rate_correction", "height_integral_gain", "max_height_correction",
+)  # fmt: skip
+#: the MPC state weights, three numbers each
+_WEIGHT_FIELDS = (
+    "weight_orientation",
+    "weight_position",
+    "weight_angular_velocity",
+    "weight_linear_velocity",
+)
 
 
 @dataclass
@@ -146,63 +169,70 @@ class QuadrupedParams:
     def __post_init__(self) -> None:
         self.inertia = tuple(float(v) for v in self.inertia)
         self.com_offset = tuple(float(v) for v in self.com_offset)  # type: ignore[assignment]
-        for name in (
-            "weight_orientation",
-            "weight_position",
-            "weight_angular_velocity",
-            "weight_linear_velocity",
-        ):
+        for name in _WEIGHT_FIELDS:
             setattr(self, name, tuple(float(v) for v in getattr(self, name)))
         self.validate()
 
     def validate(self) -> None:
-        """Raise ``ValueError`` naming the first parameter that is out of range."""
+        """Raise ``ValueError`` naming the first parameter that is out of range.
 
-        def bad(name: str, why: str) -> None:
-            raise ValueError(f"quadruped parameter '{name}' = {getattr(self, name)!r}: {why}")
+        The groups are checked in this order: number types and signs, timing and gait
+        timing, contact forces, body model (inertia, centre of mass), MPC weights, body
+        height and leg geometry.
+        """
+        self._validate_types()
+        self._validate_timing()
+        self._validate_contact_forces()
+        self._validate_body_model()
+        self._validate_weights()
+        self._validate_geometry()
 
-        for name in (
-            "control_period", "mpc_dt", "mpc_period", "mass", "friction_coefficient",
-            "max_normal_force", "gait_period", "stand_delay", "swing_height", "foot_radius",
-            "body_height", "min_body_height", "max_body_height", "max_forward_speed",
-            "max_lateral_speed", "max_yaw_rate", "max_vertical_speed",
-            "max_linear_acceleration", "max_yaw_acceleration", "osqp_eps_abs", "osqp_eps_rel",
-        ):  # fmt: skip
+    def _reject(self, name: str, why: str) -> NoReturn:
+        """Raise the ``ValueError`` that names parameter ``name``, its value and ``why``."""
+        raise ValueError(f"quadruped parameter '{name}' = {getattr(self, name)!r}: {why}")
+
+    def _validate_types(self) -> None:
+        """Positive numbers, non-negative numbers and integers >= 1."""
+        for name in _POSITIVE_FIELDS:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-                bad(name, "must be a finite number > 0")
-        for name in (
-            "min_normal_force", "foothold_velocity_gain", "max_foothold_offset", "weight_force",
-            "swing_kp", "swing_kd", "stance_kp", "stance_kd", "fault_damping_kd",
-            "velocity_integral_gain", "yaw_rate_integral_gain", "max_velocity_correction",
-            "max_yaw_rate_correction", "height_integral_gain", "max_height_correction",
-        ):  # fmt: skip
+                self._reject(name, "must be a finite number > 0")
+        for name in _NON_NEGATIVE_FIELDS:
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
-                bad(name, "must be a finite number >= 0")
+                self._reject(name, "must be a finite number >= 0")
         for name in ("mpc_horizon", "osqp_max_iter"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                bad(name, "must be an integer >= 1")
+                self._reject(name, "must be an integer >= 1")
+
+    def _validate_timing(self) -> None:
+        """MPC horizon and periods, control period, duty factor and swing duration."""
         if self.mpc_horizon > 40:
-            bad("mpc_horizon", "must be <= 40 (solve time)")
+            self._reject("mpc_horizon", "must be <= 40 (solve time)")
         if self.mpc_period < self.control_period:
-            bad("mpc_period", "must be >= control_period")
+            self._reject("mpc_period", "must be >= control_period")
         if self.control_period > 0.01:
-            bad("control_period", "must be <= 0.01 s for stable torque control")
+            self._reject("control_period", "must be <= 0.01 s for stable torque control")
         if not 0.5 <= self.duty_factor < 1.0:
-            bad("duty_factor", "must be in [0.5, 1) (a trot without flight phase)")
+            self._reject("duty_factor", "must be in [0.5, 1) (a trot without flight phase)")
         if self.gait_period * (1.0 - self.duty_factor) < 2 * self.control_period:
-            bad("gait_period", "swing phase shorter than two control periods")
+            self._reject("gait_period", "swing phase shorter than two control periods")
+
+    def _validate_contact_forces(self) -> None:
+        """Normal-force bounds and friction coefficient."""
         if self.min_normal_force >= self.max_normal_force:
-            bad("min_normal_force", "must be < max_normal_force")
+            self._reject("min_normal_force", "must be < max_normal_force")
         if self.friction_coefficient > 2.0:
-            bad("friction_coefficient", "must be <= 2")
+            self._reject("friction_coefficient", "must be <= 2")
+
+    def _validate_body_model(self) -> None:
+        """Inertia (9 finite numbers, symmetric, positive definite) and centre of mass."""
         if len(self.inertia) != 9 or not all(math.isfinite(v) for v in self.inertia):
-            bad("inertia", "must be 9 finite numbers (row-major 3x3)")
+            self._reject("inertia", "must be 9 finite numbers (row-major 3x3)")
         i = self.inertia
         if any(abs(i[r * 3 + c] - i[c * 3 + r]) > 1e-9 for r in range(3) for c in range(3)):
-            bad("inertia", "must be symmetric")
+            self._reject("inertia", "must be symmetric")
         # positive definiteness (Sylvester)
         d1 = i[0]
         d2 = i[0] * i[4] - i[1] * i[3]
@@ -212,30 +242,31 @@ class QuadrupedParams:
             + i[2] * (i[3] * i[7] - i[4] * i[6])
         )
         if not (d1 > 0 and d2 > 0 and d3 > 0):
-            bad("inertia", "must be positive definite")
+            self._reject("inertia", "must be positive definite")
         if len(self.com_offset) != 3 or not all(math.isfinite(v) for v in self.com_offset):
-            bad("com_offset", "must be 3 finite numbers")
+            self._reject("com_offset", "must be 3 finite numbers")
         if any(abs(v) > 0.1 for v in self.com_offset):
-            bad("com_offset", "must be within 0.1 m of base_link")
-        for name in (
-            "weight_orientation",
-            "weight_position",
-            "weight_angular_velocity",
-            "weight_linear_velocity",
-        ):
+            self._reject("com_offset", "must be within 0.1 m of base_link")
+
+    def _validate_weights(self) -> None:
+        """The four MPC state-weight triples."""
+        for name in _WEIGHT_FIELDS:
             value = getattr(self, name)
             if len(value) != 3 or not all(math.isfinite(v) and v >= 0 for v in value):
-                bad(name, "must be 3 finite numbers >= 0")
+                self._reject(name, "must be 3 finite numbers >= 0")
+
+    def _validate_geometry(self) -> None:
+        """Body-height range, swing height and foothold offset within the A1's reach."""
         if not self.min_body_height <= self.body_height <= self.max_body_height:
-            bad("body_height", "must lie in [min_body_height, max_body_height]")
+            self._reject("body_height", "must lie in [min_body_height, max_body_height]")
         if self.max_body_height > 0.34:
-            bad("max_body_height", "must be <= 0.34 m (leg reach of the A1)")
+            self._reject("max_body_height", "must be <= 0.34 m (leg reach of the A1)")
         if self.min_body_height < 0.12:
-            bad("min_body_height", "must be >= 0.12 m (knee limit of the A1)")
+            self._reject("min_body_height", "must be >= 0.12 m (knee limit of the A1)")
         if self.swing_height > 0.15:
-            bad("swing_height", "must be <= 0.15 m")
+            self._reject("swing_height", "must be <= 0.15 m")
         if self.max_foothold_offset > 0.3:
-            bad("max_foothold_offset", "must be <= 0.3 m")
+            self._reject("max_foothold_offset", "must be <= 0.3 m")
 
     def to_dict(self) -> dict[str, Any]:
         """Return the parameters as a flat dict (tuples as lists), as in the YAML file."""
