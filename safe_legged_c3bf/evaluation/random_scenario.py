@@ -30,6 +30,8 @@ robot stood safe in the pocket until the time ran out). :func:`passages` re-chec
 and :func:`obstacle_gaps` the "in the way" property on any scenario: the straight-line robot
 at its nominal speed meets every obstacle.
 
+Parts: the ranges drawn from are in :mod:`.random_profile`, the draw of one obstacle in
+:mod:`.random_obstacles`, the checks in :mod:`.random_checks` (all re-exported here).
 ``python -m safe_legged_c3bf.evaluation.random_scenario --robot biped --seed 4`` prints one.
 """
 
@@ -51,6 +53,15 @@ from safe_legged_c3bf.evaluation.random_checks import (
     obstacle_gaps,
     passages,
     start_goal_clearance,
+)
+from safe_legged_c3bf.evaluation.random_obstacles import (
+    bar_obstacle,
+    conflict_stations,
+    leaves_passage,
+    moving_obstacle,
+    round_mm,
+    static_obstacle,
+    xy_mm,
 )
 from safe_legged_c3bf.evaluation.random_profile import (
     BIPED_FILTER_OVERRIDES,
@@ -74,171 +85,8 @@ __all__ = [  # the profile and the checks are re-exported from their modules
 BAR_FILTER_OVERRIDES = {"safety_margin": 0.03, "min_height": 0.18, "max_height": 0.285}
 #: Planner overrides of scenarios with a bar: regain the height gently behind it.
 BAR_PLANNER_OVERRIDES = {"k_z": 0.3}
-
-
-# ------------------------------------------------------------------------------ geometry
-
-
-def _segment_point_distance(p0: np.ndarray, p1: np.ndarray, q: np.ndarray) -> float:
-    """Distance from point ``q`` to the segment p0-p1 (2D)."""
-    d = p1 - p0
-    denom = float(d @ d)
-    u = 0.0 if denom <= 0.0 else float(np.clip((q - p0) @ d / denom, 0.0, 1.0))
-    return float(np.linalg.norm(p0 + u * d - q))
-
-
-def _r(x: float) -> float:
-    """Round to mm (the YAML stays readable; clearances are far larger)."""
-    return round(float(x), 3)
-
-
-def _xy(p: np.ndarray) -> list[float]:
-    return [_r(p[0]), _r(p[1])]
-
-
-# ------------------------------------------------------------------------------ generator
-
-
-def _stations(rng: np.random.Generator, n: int, lo: float, hi: float, spacing: float) -> list:
-    """``n`` sorted points in [lo, hi], at least ``spacing`` apart (fewer if they do not fit)."""
-    if hi < lo:
-        return []
-    n = max(0, min(n, int((hi - lo) // spacing) + 1))
-    free = (hi - lo) - (n - 1) * spacing
-    u = np.sort(rng.uniform(0.0, free, n))
-    return [lo + float(u[i]) + i * spacing for i in range(n)]
-
-
-def _static_obstacle(
-    rng, p: RandomProfile, index: int, point: np.ndarray, normal: np.ndarray,
-    start: np.ndarray, goal: np.ndarray,
-) -> dict[str, Any] | None:
-    a = rng.uniform(*p.obstacle_radius)
-    b = a * rng.uniform(*p.aspect)
-    offset = rng.uniform(-1.0, 1.0) * p.in_way_fraction * (b + p.half_width)
-    centre = point + offset * normal
-    # Keep the surface clear of the start and the goal: shrink the ellipse if needed.
-    room = min(float(np.linalg.norm(centre - start)) - p.start_clearance,
-               float(np.linalg.norm(centre - goal)) - p.goal_clearance)
-    if room < a:
-        if room < 0.1:
-            return None
-        b, a = b * room / a, room
-    return {
-        "id": f"pillar_{index}",
-        "plane": "vertical",
-        "position": _xy(centre),
-        "semi_axes": [_r(a), _r(b)],
-        "orientation": _r(rng.uniform(0.0, math.pi)),
-        "extent": _r(rng.uniform(*p.height)),
-        "color": [0.55, 0.55, 0.6, 1.0],
-        "motion": {"type": "static"},
-    }
-
-
-def _moving_obstacle(
-    rng, p: RandomProfile, index: int, station: float, point: np.ndarray,
-    tangent: np.ndarray, normal: np.ndarray, start: np.ndarray, goal: np.ndarray,
-) -> dict[str, Any] | None:
-    """A mover through the conflict point ``point`` at the robot's nominal arrival time."""
-    weights = np.asarray(p.kind_weights, dtype=float)
-    kind = MOVING_KINDS[int(rng.choice(len(MOVING_KINDS), p=weights / weights.sum()))]
-    side = 1.0 if rng.random() < 0.5 else -1.0
-    if kind == "crossing":
-        psi = side * (math.pi / 2 + rng.uniform(-0.25, 0.25))
-    elif kind == "head_on":
-        psi = math.pi + rng.uniform(-0.15, 0.15)
-    else:
-        psi = side * rng.uniform(2.0, 2.6)
-    direction = math.cos(psi) * tangent + math.sin(psi) * normal
-    a = rng.uniform(*p.obstacle_radius) * 0.85  # people-sized rather than pillar-sized
-    b = a * rng.uniform(0.75, 1.0)
-    speed = rng.uniform(*p.mover_speed)
-    offset = rng.uniform(-1.0, 1.0) * 0.5 * p.in_way_fraction * (b + p.half_width)
-    meet = point + offset * normal
-    t_meet = p.start_delay + station / p.nominal_speed
-    pre = min(rng.uniform(*p.pre_travel), speed * t_meet)
-    post = rng.uniform(*p.post_travel)
-    # Shrink the approach (never below ``least_pre``) until the segment keeps clear of the
-    # start and the goal, else draw again. The walk past the conflict point is never
-    # shortened: a mover that stopped short of it stopped where the robot waits for it to
-    # pass (seen: biped seeds 4, 10 and 14, walkers stopping 0.3-0.4 m beside the path, at
-    # twice the biped's reverse speed); one that starts just before it stands beside the
-    # path and walks into the robot as it arrives (biped seed 10 once its stop was fixed).
-    least_pre = min(p.pre_travel[0], pre)
-    for _ in range(40):
-        p0, p1 = meet - pre * direction, meet + post * direction
-        if (_segment_point_distance(p0, p1, start) >= a + p.start_clearance
-                and _segment_point_distance(p0, p1, goal) >= a + p.goal_clearance):
-            break
-        if pre <= least_pre:
-            return None
-        pre = max(pre * 0.9, least_pre)
-    else:
-        return None
-    start_time = max(t_meet - pre / speed, 0.0)
-    return {
-        "id": f"{kind}_{index}",
-        "plane": "vertical",
-        "position": _xy(p0),
-        "semi_axes": [_r(a), _r(b)],
-        "orientation": _r(math.atan2(direction[1], direction[0])),
-        "extent": _r(rng.uniform(*p.height)),
-        "color": [0.85, 0.35, 0.2, 1.0],
-        "motion": {
-            "type": "waypoints", "waypoints": [_xy(p1)], "speed": _r(speed), "mode": "stop",
-            "start_time": _r(start_time),
-        },
-    }
-
-
 #: Draws of a mover before its station gets a pillar instead.
 MOVER_DRAWS = 10
-
-
-def _rest_positions(obstacle: dict[str, Any]) -> list[np.ndarray]:
-    """Where a vertical obstacle stands still: its start and, for a mover, its stop."""
-    points = [np.asarray(obstacle["position"][:2], dtype=float)]
-    motion = obstacle.get("motion") or {}
-    if motion.get("type") == "waypoints":
-        points.append(np.asarray(motion["waypoints"][-1], dtype=float))
-    return points
-
-
-def _leaves_passage(new: dict[str, Any], others: list[dict[str, Any]], passage: float) -> bool:
-    """True unless a mover at rest (``new`` or one of ``others``) closes a gap with another.
-
-    Checked for every pair involving a mover: each rest position keeps ``passage`` m between
-    the circumscribed circles. Bars and static-static pairs are not checked.
-    """
-    if new.get("plane") != "vertical":
-        return True
-    new_moves = (new.get("motion") or {}).get("type") == "waypoints"
-    a_new = max(new["semi_axes"])
-    for other in others:
-        if other.get("plane") != "vertical":
-            continue
-        if not new_moves and (other.get("motion") or {}).get("type") != "waypoints":
-            continue
-        reach = a_new + max(other["semi_axes"]) + passage
-        for p in _rest_positions(new):
-            for q in _rest_positions(other):
-                if float(np.linalg.norm(p - q)) < reach:
-                    return False
-    return True
-
-
-def _bar_obstacle(rng, p: RandomProfile, index: int, point: np.ndarray) -> dict[str, Any]:
-    radius = rng.uniform(*p.bar_radius)
-    underside = rng.uniform(*p.bar_underside)
-    return {
-        "id": f"bar_{index}",
-        "plane": "horizontal",
-        "position": [_r(point[0]), _r(point[1]), _r(underside + radius)],
-        "semi_axes": [_r(radius), _r(radius)],
-        "extent": 4.0,
-        "color": [0.2, 0.6, 0.25, 1.0],
-    }
 
 
 def generate_scenario(
@@ -270,23 +118,23 @@ def generate_scenario(
     start = np.zeros(2)
     goal = start + length * tangent
     count = int(rng.integers(p.obstacle_count[0], p.obstacle_count[1] + 1))
-    stations = _stations(rng, count, p.first_station, length - p.last_station, p.spacing)
+    stations = conflict_stations(rng, count, p.first_station, length - p.last_station, p.spacing)
     bar_index = int(rng.integers(len(stations))) if use_bar and stations else -1
     obstacles: list[dict[str, Any]] = []
     for i, s in enumerate(stations):
         point = start + s * tangent
         if i == bar_index:
-            obstacles.append(_bar_obstacle(rng, p, i, point))
+            obstacles.append(bar_obstacle(rng, p, i, point))
             continue
         mover = None
         if rng.random() < p.moving_probability:
             for _ in range(MOVER_DRAWS):
-                mover = _moving_obstacle(rng, p, i, s, point, tangent, normal, start, goal)
-                if mover is None or _leaves_passage(mover, obstacles, p.passage):
+                mover = moving_obstacle(rng, p, i, s, point, tangent, normal, start, goal)
+                if mover is None or leaves_passage(mover, obstacles, p.passage):
                     break
                 mover = None
-        obstacle = mover or _static_obstacle(rng, p, i, point, normal, start, goal)
-        if obstacle is not None and not _leaves_passage(obstacle, obstacles, p.passage):
+        obstacle = mover or static_obstacle(rng, p, i, point, normal, start, goal)
+        if obstacle is not None and not leaves_passage(obstacle, obstacles, p.passage):
             obstacle = None  # a pillar beside a resting mover: leave the station empty
         if obstacle is not None:
             obstacles.append(obstacle)
@@ -298,8 +146,8 @@ def generate_scenario(
             f"{math.degrees(yaw):.0f} deg, {len(obstacles)} obstacle(s) in the way "
             f"({', '.join(kinds) or 'none'})."
         ),
-        "robot": {"kind": robot, "position": _xy(start), "yaw": _r(yaw)},
-        "goal": {"position": _xy(goal), "tolerance": 0.3},
+        "robot": {"kind": robot, "position": xy_mm(start), "yaw": round_mm(yaw)},
+        "goal": {"position": xy_mm(goal), "tolerance": 0.3},
         "duration": float(p.duration),
         "seed": int(seed),
         "perception": dict(p.perception),
