@@ -33,7 +33,8 @@ from typing import Any
 
 import yaml
 
-from safe_legged_c3bf.evaluation.results import RUN_COLUMNS, attach_overhead, write_csv
+from safe_legged_c3bf.evaluation.metrics import attach_overhead
+from safe_legged_c3bf.evaluation.results import RUN_COLUMNS, write_csv
 from safe_legged_c3bf.evaluation.results import write_results as _write_results
 from safe_legged_c3bf.evaluation.runner import Runner, RunSpec
 from safe_legged_c3bf.run.quiet_stderr import quiet_stderr
@@ -342,7 +343,7 @@ def combine(folders: list[Path], out: Path | None, figures: bool,
 
 
 def _print_summary(records: list[dict[str, Any]], paths: dict[str, Path]) -> None:
-    from safe_legged_c3bf.evaluation.results import aggregate
+    from safe_legged_c3bf.evaluation.metrics import aggregate
 
     print("\nevaluate: summary (obstacle runs; rates over valid runs)")
     for row in aggregate(records, ("robot", "filter")):
