@@ -226,19 +226,15 @@ def _sigterm(signum: int, frame) -> None:  # noqa: ANN001
     raise KeyboardInterrupt
 
 
-
-
 def main(argv: list[str] | None = None) -> int:
     """Run the evaluation; see the module docstring for the exit codes."""
     opts = build_parser().parse_args(argv)
     with quiet_stderr():
         from safe_legged_c3bf.sim.scenario import ScenarioError
 
-    if opts.jobs < 1 or (opts.seeds is not None and opts.seeds < 1):
-        print("evaluate: --jobs and --seeds must be >= 1", file=sys.stderr)
-        return EXIT_USAGE
-    if opts.duration is not None and not opts.duration > 0:
-        print("evaluate: --duration must be positive", file=sys.stderr)
+    problem = _usage_problem(opts)
+    if problem:
+        print(f"evaluate: {problem}", file=sys.stderr)
         return EXIT_USAGE
     if opts.combine:
         return combine(opts.combine, opts.out, not opts.no_figures, argv)
@@ -254,13 +250,7 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_USAGE
     durations = {s.run_id: float(opts.duration or c.duration)
                  for c in cases for s in specs if s.case == c.case}
-    print(f"evaluate: suite {suite}: {len(cases)} scenario(s), {len(specs)} run(s), "
-          f"{opts.jobs} at a time{', in-process' if opts.in_process else ''}; output {out}",
-          flush=True)
-    sim_total = sum(durations.values())
-    print(f"evaluate: {sim_total:.0f} s of sim time in total "
-          f"(at a real-time factor of ~0.35 about {sim_total / 0.35 / opts.jobs / 60:.0f} min)",
-          flush=True)
+    _announce(suite, cases, specs, durations, opts, out)
     if opts.dry_run:
         for s in specs:
             print(f"  {s.run_id}: {s.scenario} filter {'on' if s.filter_enabled else 'OFF'}"
@@ -269,7 +259,48 @@ def main(argv: list[str] | None = None) -> int:
     if not specs:
         print("evaluate: nothing to run", file=sys.stderr)
         return EXIT_FAILED
+    records, interrupted, wall = _run(specs, durations, opts, out)
+    notes = [
+        f"Suite `{suite}`: {len(cases)} scenario(s), {len(records)} of {len(specs)} run(s) "
+        f"finished in {wall / 60:.1f} min wall, {opts.jobs} at a time"
+        f"{' (in-process)' if opts.in_process else ''}; "
+        f"{datetime.now().strftime('%Y-%m-%d %H:%M')}.",
+        _command_note(argv),
+    ]
+    paths = _write_results(records, out, title=f"Evaluation: {suite}", notes=notes,
+                           figures=not opts.no_figures)
+    _print_summary(records, paths)
+    return _exit_code(records, specs, interrupted)
 
+
+def _usage_problem(opts: argparse.Namespace) -> str | None:
+    """What is wrong with options argparse accepts (None if nothing)."""
+    if opts.jobs < 1 or (opts.seeds is not None and opts.seeds < 1):
+        return "--jobs and --seeds must be >= 1"
+    if opts.duration is not None and not opts.duration > 0:
+        return "--duration must be positive"
+    return None
+
+
+def _announce(suite: str, cases: list[Case], specs: list[RunSpec], durations: dict[str, float],
+              opts: argparse.Namespace, out: Path) -> None:
+    """Print what will run and a rough wall-time estimate (min)."""
+    print(f"evaluate: suite {suite}: {len(cases)} scenario(s), {len(specs)} run(s), "
+          f"{opts.jobs} at a time{', in-process' if opts.in_process else ''}; output {out}",
+          flush=True)
+    sim_total = sum(durations.values())
+    print(f"evaluate: {sim_total:.0f} s of sim time in total "
+          f"(at a real-time factor of ~0.35 about {sim_total / 0.35 / opts.jobs / 60:.0f} min)",
+          flush=True)
+
+
+def _run(specs: list[RunSpec], durations: dict[str, float], opts: argparse.Namespace,
+         out: Path) -> tuple[list[dict[str, Any]], bool, float]:
+    """Run ``specs``: (result rows, interrupted, wall time in s).
+
+    results.csv is rewritten after every finished run; Ctrl-C or SIGTERM stops the runs and
+    keeps the rows of the finished ones.
+    """
     done: list[dict[str, Any]] = []
 
     def on_result(rec: dict[str, Any]) -> None:
@@ -289,18 +320,11 @@ def main(argv: list[str] | None = None) -> int:
         print("evaluate: interrupted; writing the results of the finished runs", flush=True)
     finally:
         signal.signal(signal.SIGTERM, previous)
-    wall = time.monotonic() - t0
-    notes = [
-        f"Suite `{suite}`: {len(cases)} scenario(s), {len(records)} of {len(specs)} run(s) "
-        f"finished in {wall / 60:.1f} min wall, {opts.jobs} at a time"
-        f"{' (in-process)' if opts.in_process else ''}; "
-        f"{datetime.now().strftime('%Y-%m-%d %H:%M')}.",
-        "Command: `python -m safe_legged_c3bf.evaluate "
-        + " ".join(argv if argv is not None else sys.argv[1:]) + "`",
-    ]
-    paths = _write_results(records, out, title=f"Evaluation: {suite}", notes=notes,
-                           figures=not opts.no_figures)
-    _print_summary(records, paths)
+    return records, interrupted, time.monotonic() - t0
+
+
+def _exit_code(records: list[dict[str, Any]], specs: list[RunSpec], interrupted: bool) -> int:
+    """130 if interrupted, EXIT_FAILED if some run could not be executed, else EXIT_OK."""
     if interrupted:
         return 130
     unexecuted = [r for r in records if r["outcome"] == "startup_failed"]
@@ -309,6 +333,12 @@ def main(argv: list[str] | None = None) -> int:
               + ", ".join(r["run_id"] for r in unexecuted), file=sys.stderr)
         return EXIT_FAILED
     return EXIT_OK
+
+
+def _command_note(argv: list[str] | None) -> str:
+    """The command line, for the notes of results.md."""
+    return ("Command: `python -m safe_legged_c3bf.evaluate "
+            + " ".join(argv if argv is not None else sys.argv[1:]) + "`")
 
 
 def combine(folders: list[Path], out: Path | None, figures: bool,
@@ -333,8 +363,7 @@ def combine(folders: list[Path], out: Path | None, figures: bool,
     notes = [
         f"Combined from {', '.join(str(f) for f in folders)} ({len(records)} runs); "
         f"{datetime.now().strftime('%Y-%m-%d %H:%M')}.",
-        "Command: `python -m safe_legged_c3bf.evaluate "
-        + " ".join(argv if argv is not None else sys.argv[1:]) + "`",
+        _command_note(argv),
     ]
     paths = _write_results(attach_overhead(records), out, title="Evaluation: combined",
                            notes=notes, figures=figures)
