@@ -33,7 +33,6 @@ from pydantic import (
     create_model,
     model_validator,
 )
-from pydantic_core import PydanticCustomError
 
 from safe_legged_c3bf.node_parameters import (
     OVERRIDE_NODES,
@@ -42,6 +41,27 @@ from safe_legged_c3bf.node_parameters import (
     override_refuses_integers,
 )
 from safe_legged_c3bf.sim.robots import ROBOTS
+from safe_legged_c3bf.sim.scenario_fields import (
+    ERROR_INVALID,
+    ERROR_MISSING,
+    ERROR_UNKNOWN,
+    NonNeg,
+    Num,
+    PosNum,
+    choice,
+    fail,
+    fail_missing,
+    fail_unknown,
+    non_empty_string,
+    non_negative_integer,
+    number,
+    obstacle_id,
+    override_value,
+    scalar_or_xyz,
+    string,
+    vector,
+    waypoint_list,
+)
 
 PLANES = ("vertical", "horizontal")
 MOTION_TYPES = ("static", "constant_velocity", "waypoints")
@@ -51,190 +71,6 @@ PLANNER_MODES = ("goal", "constant_velocity")
 PLANNER_FIELDS = ("mode", "speed", "velocity")
 #: Most error lines in one message.
 MAX_LINES = 10
-
-_INVALID, _UNKNOWN, _MISSING = "scenario_invalid", "scenario_unknown", "scenario_missing"
-
-
-def _fail(message: str, suffix: str = "") -> None:
-    """Raise a validation error; ``suffix`` extends the field path ('.speed', '[0]')."""
-    raise PydanticCustomError(_INVALID, "{message}", {"message": message, "suffix": suffix})
-
-
-# --------------------------------------------------------------------------- leaf values
-
-
-def as_number(value: Any, allow_inf: bool = False) -> float | None:
-    """``value`` as a float, or None if it is not a finite number (bools are not numbers)."""
-    if isinstance(value, bool):
-        return None
-    if isinstance(value, str) and allow_inf and value.strip().lower() in ("inf", ".inf"):
-        return math.inf
-    if not isinstance(value, int | float):
-        return None
-    x = float(value)
-    if math.isnan(x) or (math.isinf(x) and not allow_inf):
-        return None
-    return x
-
-
-def as_vector(value: Any, sizes: tuple[int, ...]) -> tuple[float, ...] | None:
-    """``value`` as a tuple of finite floats of one of ``sizes`` lengths, or None."""
-    if not isinstance(value, list | tuple) or len(value) not in sizes:
-        return None
-    out = [as_number(v) for v in value]
-    return None if any(x is None for x in out) else tuple(out)  # type: ignore[arg-type]
-
-
-def number(*, positive=False, minimum=None, maximum=None, allow_inf=False) -> PlainValidator:
-    """A number (never a bool or a string), optionally > 0 or within [minimum, maximum]."""
-
-    def check(value: Any) -> float:
-        x = as_number(value, allow_inf)
-        if x is None:
-            _fail(f"must be a number, got {value!r}")
-        if positive and not x > 0:
-            _fail(f"must be a positive number, got {value!r}")
-        if minimum is not None and x < minimum:
-            _fail(f"must be >= {minimum}, got {value!r}")
-        if maximum is not None and x > maximum:
-            _fail(f"must be <= {maximum}, got {value!r}")
-        return x
-
-    return PlainValidator(check)
-
-
-def _integer(value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, int):
-        _fail(f"must be an integer, got {value!r}")
-    if value < 0:
-        _fail(f"must be >= 0, got {value!r}")
-    return int(value)
-
-
-def choice(options: tuple[str, ...]) -> PlainValidator:
-    """One of ``options`` (strings)."""
-
-    def check(value: Any) -> str:
-        if not isinstance(value, str) or value not in options:
-            _fail(f"must be one of {', '.join(options)}; got {value!r}")
-        return value
-
-    return PlainValidator(check)
-
-
-def _name(value: Any) -> str:
-    if not isinstance(value, str) or not value.strip():
-        _fail(f"must be a non-empty string, got {value!r}")
-    return value
-
-
-def _text(value: Any) -> str:
-    if not isinstance(value, str):
-        _fail(f"must be a string, got {value!r}")
-    return value
-
-
-def _obstacle_id(value: Any) -> str:
-    if not isinstance(value, str | int) or isinstance(value, bool):
-        _fail(f"must be a string, got {value!r}")
-    return str(value)
-
-
-def vector(sizes: tuple[int, ...], *, positive=False, non_negative=False, what=None):
-    """A list of ``sizes`` numbers (any of those lengths), optionally > 0 or >= 0."""
-
-    def check(value: Any) -> tuple[float, ...]:
-        vec = as_vector(value, sizes)
-        ok = vec is not None
-        if ok and positive:
-            ok = all(v > 0 for v in vec)
-        if ok and non_negative:
-            ok = all(v >= 0 for v in vec)
-        if not ok:
-            if what is None:
-                count = " or ".join(str(s) for s in sizes)
-                kind = ("positive numbers" if positive else
-                        "non-negative numbers" if non_negative else "numbers")
-                _fail(f"must be a list of {count} {kind}, got {value!r}")
-            _fail(what)
-        return vec
-
-    return PlainValidator(check)
-
-
-def scalar_or_xyz(non_negative: bool = False) -> PlainValidator:
-    """One number for x, y and z, or a list of 3."""
-
-    def check(value: Any) -> tuple[float, float, float]:
-        vec = as_vector(value, (3,)) if isinstance(value, list | tuple) else None
-        if vec is None:
-            x = None if isinstance(value, list | tuple) else as_number(value)
-            if x is None:
-                _fail(f"must be a number or a list of 3 numbers (x, y, z), got {value!r}")
-            vec = (x, x, x)
-        if non_negative and any(v < 0 for v in vec):
-            _fail(f"must be non-negative, got {value!r}")
-        return vec  # type: ignore[return-value]
-
-    return PlainValidator(check)
-
-
-def _waypoint_list(value: Any) -> list[tuple[float, ...]]:
-    if not isinstance(value, list) or not value:
-        _fail("must be a non-empty list of [x, y] or [x, y, z] points")
-    points = []
-    for i, p in enumerate(value):
-        vec = as_vector(p, (2, 3))
-        if vec is None:
-            _fail(f"must be [x, y] or [x, y, z] numbers, got {p!r}", f"[{i}]")
-        points.append(vec)
-    return points
-
-
-def _is_float(value: Any) -> bool:
-    return isinstance(value, float) and not math.isnan(value)
-
-
-def _is_number(value: Any) -> bool:
-    return _is_float(value) or (isinstance(value, int) and not isinstance(value, bool))
-
-
-def override_value(name: str, default: Any, node: str, strict_double: bool) -> PlainValidator:
-    """A parameter override of the type of the node's default for it.
-
-    ``strict_double``: the node's parameter class refuses an integer for a float (the node
-    would fail to start).
-    """
-
-    def check(value: Any) -> Any:
-        if isinstance(default, bool):
-            if not isinstance(value, bool):
-                _fail(f"must be true or false, got {value!r}")
-        elif isinstance(default, int):
-            if isinstance(value, bool) or not isinstance(value, int):
-                _fail(f"must be an integer, got {value!r}")
-        elif isinstance(default, float):
-            if not _is_number(value):
-                _fail(f"must be a number, got {value!r}")
-            if strict_double and not _is_float(value):
-                _fail(f"must be a floating-point number, got {value!r} (write {value}.0: the "
-                      f"{node} node declares {name} as a double and refuses an integer)")
-        elif isinstance(default, str):
-            if not isinstance(value, str):
-                _fail(f"must be a string, got {value!r}")
-        elif isinstance(default, list | tuple):
-            ok = _is_float if strict_double else _is_number
-            if not isinstance(value, list) or not value or not all(ok(v) for v in value):
-                kind = "floating-point numbers (1.0, not 1)" if strict_double else "numbers"
-                _fail(f"must be a list of {kind}, got {value!r}")
-        return value
-
-    return PlainValidator(check)
-
-
-Num = Annotated[float, number()]
-PosNum = Annotated[float, number(positive=True)]
-NonNeg = Annotated[float, number(minimum=0.0)]
 
 
 # --------------------------------------------------------------------------- models
@@ -266,13 +102,6 @@ class Section(BaseModel):
         order = {key: i for i, key in enumerate(self._keys_in_order)}
         return dict(sorted(values.items(), key=lambda item: order.get(item[0], len(order))))
 
-
-def _unknown(key: str, allowed: tuple[str, ...]) -> None:
-    raise PydanticCustomError(_UNKNOWN, "unknown field", {"key": key, "allowed": allowed})
-
-
-def _missing(key: str, note: str = "") -> None:
-    raise PydanticCustomError(_MISSING, "is required", {"key": key, "note": note})
 
 
 class RobotSection(Section):
@@ -314,7 +143,7 @@ class MotionSection(Section):
     type: Annotated[str, choice(MOTION_TYPES)] = "static"
     start_time: NonNeg = 0.0
     velocity: Annotated[tuple, vector((2, 3))] | None = None
-    waypoints: Annotated[list, PlainValidator(_waypoint_list)] | None = None
+    waypoints: Annotated[list, PlainValidator(waypoint_list)] | None = None
     speed: PosNum | None = None
     mode: Annotated[str, choice(WAYPOINT_MODES)] = "pingpong"
 
@@ -322,21 +151,21 @@ class MotionSection(Section):
     def _fields_of_type(self) -> MotionSection:
         allowed = _MOTION_KEYS[self.type]
         for key in sorted(self.model_fields_set - set(allowed)):
-            _unknown(key, allowed)
+            fail_unknown(key, allowed)
         if self.type == "constant_velocity" and self.velocity is None:
-            _missing("velocity")
+            fail_missing("velocity")
         if self.type == "waypoints":
             if self.waypoints is None:
-                _missing("waypoints")
+                fail_missing("waypoints")
             if self.speed is None:
-                _missing("speed")
+                fail_missing("speed")
         return self
 
 
 class ObstacleSection(Section):
     """``obstacles[i]:`` (the position's meaning depends on ``plane``)."""
 
-    id: Annotated[str, PlainValidator(_obstacle_id)] | None = None
+    id: Annotated[str, PlainValidator(obstacle_id)] | None = None
     plane: Annotated[str, choice(PLANES)] = "vertical"
     position: Annotated[tuple, vector((2, 3))]
     semi_axes: Annotated[
@@ -351,21 +180,21 @@ class ObstacleSection(Section):
     def _position_and_path(self) -> ObstacleSection:
         if self.plane == "horizontal":
             if len(self.position) != 3:
-                _fail("must be [x, y, z] (x, middle of the bar along y, height of the bar "
+                fail("must be [x, y, z] (x, middle of the bar along y, height of the bar "
                       f"axis), got {list(self.position)!r}", ".position")
             if self.position[2] <= 0:
-                _fail("the bar's height z must be positive", ".position")
+                fail("the bar's height z must be positive", ".position")
         start = self.start_position()
         previous = start
         for i, point in enumerate(self.waypoints()):
             if math.dist(point, previous) < 1e-6:
-                _fail("must differ from the previous point (the obstacle's position for the "
+                fail("must differ from the previous point (the obstacle's position for the "
                       "first waypoint)", f".motion.waypoints[{i}]")
             previous = point
         if self.motion.mode == "cycle" and self.waypoints() and math.dist(
             self.waypoints()[-1], start
         ) < 1e-6:
-            _fail("in cycle mode the last waypoint must not repeat the start position",
+            fail("in cycle mode the last waypoint must not repeat the start position",
                   ".motion.waypoints")
         return self
 
@@ -423,7 +252,7 @@ _PLANNER_VELOCITY = vector(
 
 def _check_planner(self: BaseModel) -> BaseModel:
     if self.mode == "constant_velocity" and self.velocity is None:  # type: ignore[attr-defined]
-        _missing("velocity", "in constant_velocity mode ([vx, vy, vz, yaw_rate])")
+        fail_missing("velocity", "in constant_velocity mode ([vx, vy, vz, yaw_rate])")
     return self
 
 
@@ -471,12 +300,12 @@ def scenario_model() -> type[Section]:
     return create_model(
         "ScenarioDocument",
         __base__=Section,
-        name=(Annotated[str, PlainValidator(_name)] | None, None),
-        description=(Annotated[str, PlainValidator(_text)], ""),
+        name=(Annotated[str, PlainValidator(non_empty_string)] | None, None),
+        description=(Annotated[str, PlainValidator(string)], ""),
         robot=(RobotSection, Field(default_factory=RobotSection)),
         goal=(GoalSection, Field(default_factory=GoalSection)),
         duration=(PosNum, 30.0),
-        seed=(Annotated[int, PlainValidator(_integer)], 0),
+        seed=(Annotated[int, PlainValidator(non_negative_integer)], 0),
         perception=(PerceptionSection, Field(default_factory=PerceptionSection)),
         obstacles=(list[ObstacleSection], Field(default_factory=list)),
         planner=(_override_model("planner"), Field(default_factory=_override_model("planner"))),
@@ -560,18 +389,18 @@ def format_errors(error: ValidationError, root: type[BaseModel]) -> list[str]:
             unknown.append(f"{_path(loc)}: {text}")
             if guess:
                 meant.add((*parent, guess))
-        elif kind == _UNKNOWN:
+        elif kind == ERROR_UNKNOWN:
             model = _model_at(root, loc)
             text, guess = _unknown_message(loc, ctx["key"], model, ctx["allowed"])
             unknown.append(f"{_path((*loc, ctx['key']))}: {text}")
             if guess:
                 meant.add((*loc, guess))
-        elif kind == _MISSING:
+        elif kind == ERROR_MISSING:
             note = f" {ctx['note']}" if ctx.get("note") else ""
             others.append(((*loc, ctx["key"]), f"{_path((*loc, ctx['key']))}: is required{note}"))
         elif kind == "missing":
             others.append((loc, f"{_path(loc)}: is required"))
-        elif kind == _INVALID:
+        elif kind == ERROR_INVALID:
             others.append((loc, f"{_path(loc, ctx.get('suffix', ''))}: {ctx['message']}"))
         elif kind in ("model_type", "model_attributes_type", "dict_type"):
             others.append((loc, f"{_path(loc)}: must be a mapping, got {err['input']!r}"))
