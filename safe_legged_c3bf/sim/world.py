@@ -42,6 +42,7 @@ from numpy.typing import ArrayLike
 from safe_legged_c3bf.base_state import BaseState
 from safe_legged_c3bf.joint_command import JointCommand
 from safe_legged_c3bf.sim.camera import CameraConfig, FollowCamera
+from safe_legged_c3bf.sim.goal_progress import GoalProgress
 from safe_legged_c3bf.sim.ground_truth import GroundTruthMonitor, GroundTruthSample
 from safe_legged_c3bf.sim.motor_driver import DriverMode, MotorDriver
 from safe_legged_c3bf.sim.obstacles import KinematicObstacle, ObstacleState
@@ -198,9 +199,7 @@ class Simulation:
         self.driver_timeouts = 0
         self.commands_received = 0
         self.malformed_commands = 0
-        self._goal = tuple(float(v) for v in sc.goal.position)
-        self._goal_reached_time: float | None = None
-        self._min_goal_distance = math.inf
+        self.goal_progress = GoalProgress(sc.goal.position, sc.goal.tolerance)
         self._camera: FollowCamera | None = None
         self._record_every = 0
         self._frames: list[np.ndarray] = []
@@ -328,11 +327,7 @@ class Simulation:
 
     def _update_goal(self, t: float) -> None:
         pos, _ = self._link_pose(self.monitor.last_base_position, self.monitor.last_base_quaternion)
-        distance = math.hypot(pos[0] - self._goal[0], pos[1] - self._goal[1])
-        self._min_goal_distance = min(self._min_goal_distance, distance)
-        if self._goal_reached_time is None and distance <= self.scenario.goal.tolerance:
-            self._goal_reached_time = t
-        self._goal_distance = distance
+        self.goal_progress.update(t, pos)
 
     # ------------------------------------------------------------------ state
 
@@ -459,10 +454,10 @@ class Simulation:
             "max_tilt": stats.max_tilt,
             "min_base_height": _json_number(stats.min_base_height),
             "goal": list(sc.goal.position),
-            "goal_reached": self._goal_reached_time is not None,
-            "goal_reached_time": self._goal_reached_time,
-            "final_goal_distance": self._goal_distance,
-            "min_goal_distance": self._min_goal_distance,
+            "goal_reached": self.goal_progress.reached,
+            "goal_reached_time": self.goal_progress.reached_time,
+            "final_goal_distance": self.goal_progress.distance,
+            "min_goal_distance": self.goal_progress.min_distance,
             "final_base_position": [float(v) for v in pos],
             "commands_received": self.commands_received,
             "rejected_commands": self.rejected_commands,
