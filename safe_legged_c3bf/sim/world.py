@@ -26,12 +26,10 @@ Typical use::
 from __future__ import annotations
 
 import array
-import json
 import math
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -48,6 +46,7 @@ from safe_legged_c3bf.sim.motor_driver import DriverMode, MotorDriver
 from safe_legged_c3bf.sim.obstacles import KinematicObstacle, ObstacleState
 from safe_legged_c3bf.sim.perception import PerceptionModel
 from safe_legged_c3bf.sim.robots import load_robot
+from safe_legged_c3bf.sim.run_summary import run_summary, write_json
 from safe_legged_c3bf.sim.scenario import Scenario, load_scenario
 
 
@@ -112,12 +111,6 @@ def _float_list(values: ArrayLike, n: int) -> list[float]:
     if len(out) != n:
         raise ValueError(f"{len(out)} entries for {n} joints")
     return out
-
-
-def _json_number(x: float | None) -> float | None:
-    if x is None or not math.isfinite(x):
-        return None
-    return float(x)
 
 
 class Simulation:
@@ -423,65 +416,19 @@ class Simulation:
     # ------------------------------------------------------------------ summary
 
     def summary(self, extra: dict[str, Any] | None = None) -> dict[str, Any]:
-        """Run summary as a JSON-ready dict (infinite values become None).
+        """Run summary as a JSON-ready dict (:func:`~.run_summary.run_summary`).
 
         ``extra`` entries (e.g. the node's pacing statistics) are merged in at top level.
         """
-        sc, stats = self.scenario, self.monitor.stats
         pos, _ = self._link_pose(self.monitor.last_base_position, self.monitor.last_base_quaternion)
-        out: dict[str, Any] = {
-            "scenario": sc.name,
-            "source": sc.source,
-            "robot": sc.robot.model,
-            "seed": self.seed,
-            "duration": sc.duration,
-            "sim_time": self.time,
-            "physics_steps": self._step,
-            "physics_dt": self.physics_dt,
-            "finished": self.finished,
-            "collision_count": len(stats.collision_events),
-            "collisions": [
-                {"time": e.time, "obstacle_id": e.obstacle_id, "links": list(e.links)}
-                for e in stats.collision_events
-            ],
-            "time_in_collision": stats.time_in_collision,
-            "min_distance": _json_number(stats.min_distance),
-            "min_distance_time": stats.min_distance_time,
-            "min_distance_obstacle": stats.min_distance_obstacle,
-            "min_distance_exact": bool(stats.min_distance < sc.ground_truth.distance_cutoff),
-            "fell": stats.fell,
-            "fall_time": stats.fall_time,
-            "max_tilt": stats.max_tilt,
-            "min_base_height": _json_number(stats.min_base_height),
-            "goal": list(sc.goal.position),
-            "goal_reached": self.goal_progress.reached,
-            "goal_reached_time": self.goal_progress.reached_time,
-            "final_goal_distance": self.goal_progress.distance,
-            "min_goal_distance": self.goal_progress.min_distance,
-            "final_base_position": [float(v) for v in pos],
-            "commands_received": self.commands_received,
-            "rejected_commands": self.rejected_commands,
-            "driver_timeouts": self.driver_timeouts,
-            "driver_mode": self._driver_mode.value,
-            "detection_frames": self.perception.frames,
-            "detections_dropped": self.perception.dropped,
-        }
-        if extra:
-            out.update(extra)
-        return out
+        return run_summary(self, pos, extra)
 
     def write_summary(
         self, path: str | os.PathLike[str], extra: dict[str, Any] | None = None
     ) -> dict[str, Any]:
         """Write :meth:`summary` as JSON to ``path`` (directories created) and return it."""
         data = self.summary(extra)
-        target = Path(path)
-        target.parent.mkdir(parents=True, exist_ok=True)
-        tmp = target.with_name(target.name + ".tmp")
-        with open(tmp, "w", encoding="utf-8") as f:
-            json.dump(data, f, indent=2, allow_nan=False)
-            f.write("\n")
-        os.replace(tmp, target)
+        write_json(path, data)
         return data
 
     # ------------------------------------------------------------------ lifetime
