@@ -26,7 +26,6 @@ Typical use::
 from __future__ import annotations
 
 import array
-import math
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -43,6 +42,7 @@ from safe_legged_c3bf.sim.camera import CameraConfig, FollowCamera
 from safe_legged_c3bf.sim.goal_progress import GoalProgress
 from safe_legged_c3bf.sim.ground_truth import GroundTruthMonitor, GroundTruthSample
 from safe_legged_c3bf.sim.motor_driver import DriverMode, MotorDriver
+from safe_legged_c3bf.sim.obstacle_sync import ObstacleSync
 from safe_legged_c3bf.sim.obstacles import KinematicObstacle, ObstacleState
 from safe_legged_c3bf.sim.perception import PerceptionModel
 from safe_legged_c3bf.sim.robots import load_robot
@@ -151,17 +151,18 @@ class Simulation:
         self.seed = self.scenario.seed if seed is None else int(seed)
         self.physics_dt = float(physics_dt)
         self._total_steps = int(round(self.scenario.duration / self.physics_dt))
-        self._sync_steps = int(obstacle_sync_steps)
         self.client = pybullet.connect(pybullet.GUI if gui else pybullet.DIRECT)
         if self.client < 0:
             raise RuntimeError("cannot connect to PyBullet" + (" GUI" if gui else ""))
         try:
-            self._build(command_timeout, damping_kd, mesh_segments)
+            self._build(command_timeout, damping_kd, obstacle_sync_steps, mesh_segments)
         except Exception:
             pybullet.disconnect(self.client)
             raise
 
-    def _build(self, command_timeout: float, damping_kd: float, mesh_segments: int) -> None:
+    def _build(
+        self, command_timeout: float, damping_kd: float, sync_steps: int, mesh_segments: int
+    ) -> None:
         sc, c = self.scenario, self.client
         pybullet.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=c)
         pybullet.setPhysicsEngineParameter(
@@ -179,9 +180,7 @@ class Simulation:
         self.driver = MotorDriver(c, self.robot, timeout=command_timeout, damping_kd=damping_kd)
         self._joint_indices = self.robot.joint_indices.tolist()  # a list is faster to parse
         self.obstacles = [KinematicObstacle(c, o, mesh_segments) for o in sc.obstacles]
-        self._moving = [i for i, o in enumerate(self.obstacles) if o.moving]
-        self._next_sync = {i: 0 for i in self._moving}
-        self._centers = [o.script.state(0.0)[0] for o in self.obstacles]
+        self._obstacle_sync = ObstacleSync(self.obstacles, sync_steps, self.physics_dt)
         self.monitor = GroundTruthMonitor(
             c, self.robot, self.obstacles, sc.ground_truth, self.physics_dt
         )
@@ -197,7 +196,7 @@ class Simulation:
         self._record_every = 0
         self._frames: list[np.ndarray] = []
         self._closed = False
-        self.monitor.update(0.0, self._centers)
+        self.monitor.update(0.0, self._obstacle_sync.centers)
         self._update_goal(0.0)
 
     # ------------------------------------------------------------------ properties
@@ -284,8 +283,7 @@ class Simulation:
     def step(self, n: int = 1) -> None:
         """Advance physics by ``n`` steps (continues past the duration if asked to)."""
         dt, client = self.physics_dt, self.client
-        driver, monitor, obstacles = self.driver, self.monitor, self.obstacles
-        moving, next_sync, centers = self._moving, self._next_sync, self._centers
+        driver, monitor, sync = self.driver, self.monitor, self._obstacle_sync
         for _ in range(int(n)):
             k = self._step
             t = k * dt
@@ -295,28 +293,16 @@ class Simulation:
                 if mode is DriverMode.DAMPING and self._driver_mode is DriverMode.ACTIVE:
                     self.driver_timeouts += 1
                 self._driver_mode = mode
-            for i in moving:
-                if k >= next_sync[i]:
-                    self._sync_obstacle(i, k, t)
+            sync.before_step(k, t)
             pybullet.stepSimulation(physicsClientId=client)
             k += 1
             self._step = k
             t = k * dt
-            for i in moving:
-                centers[i] = obstacles[i].body_position()
-            monitor.update(t, centers)
+            sync.after_step()
+            monitor.update(t, sync.centers)
             self._update_goal(t)
             if self._record_every and k % self._record_every == 0:
                 self._frames.append(self.render_frame())
-
-    def _sync_obstacle(self, i: int, k: int, t: float) -> None:
-        obstacle = self.obstacles[i]
-        obstacle.sync(t)
-        change = obstacle.script.next_change(t)
-        next_step = k + self._sync_steps
-        if math.isfinite(change):
-            next_step = min(next_step, max(k + 1, math.ceil(change / self.physics_dt - 1e-9)))
-        self._next_sync[i] = next_step
 
     def _update_goal(self, t: float) -> None:
         pos, _ = self._link_pose(self.monitor.last_base_position, self.monitor.last_base_quaternion)
