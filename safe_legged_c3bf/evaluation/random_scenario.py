@@ -126,16 +126,7 @@ def generate_scenario(
         if i == bar_index:
             obstacles.append(bar_obstacle(rng, p, i, point))
             continue
-        mover = None
-        if rng.random() < p.moving_probability:
-            for _ in range(MOVER_DRAWS):
-                mover = moving_obstacle(rng, p, i, s, point, tangent, normal, start, goal)
-                if mover is None or leaves_passage(mover, obstacles, p.passage):
-                    break
-                mover = None
-        obstacle = mover or static_obstacle(rng, p, i, point, normal, start, goal)
-        if obstacle is not None and not leaves_passage(obstacle, obstacles, p.passage):
-            obstacle = None  # a pillar beside a resting mover: leave the station empty
+        obstacle = _station_obstacle(rng, p, i, s, point, tangent, normal, start, goal, obstacles)
         if obstacle is not None:
             obstacles.append(obstacle)
     kinds = sorted({o["id"].rsplit("_", 1)[0] for o in obstacles})
@@ -161,6 +152,30 @@ def generate_scenario(
     if overrides:
         data["filter"] = overrides
     return data
+
+
+def _station_obstacle(
+    rng: np.random.Generator, p: RandomProfile, i: int, s: float, point: np.ndarray,
+    tangent: np.ndarray, normal: np.ndarray, start: np.ndarray, goal: np.ndarray,
+    placed: list[dict[str, Any]],
+) -> dict[str, Any] | None:
+    """What stands at station ``i`` (``s`` m from the start, at ``point``; odom x-y, m).
+
+    A mover with probability ``moving_probability`` (drawn up to :data:`MOVER_DRAWS` times
+    until it leaves the passages to the obstacles already ``placed`` open), else a pillar;
+    None when no pillar fits or it would close a passage too.
+    """
+    mover = None
+    if rng.random() < p.moving_probability:
+        for _ in range(MOVER_DRAWS):
+            mover = moving_obstacle(rng, p, i, s, point, tangent, normal, start, goal)
+            if mover is None or leaves_passage(mover, placed, p.passage):
+                break
+            mover = None
+    obstacle = mover or static_obstacle(rng, p, i, point, normal, start, goal)
+    if obstacle is not None and not leaves_passage(obstacle, placed, p.passage):
+        obstacle = None  # a pillar beside a resting mover: leave the station empty
+    return obstacle
 
 
 def random_scenario(robot: str = "quadruped", seed: int = 0, **kwargs: Any) -> Scenario:
