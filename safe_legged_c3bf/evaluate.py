@@ -26,51 +26,33 @@ import math
 import signal
 import sys
 import time
-from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 from typing import Any
 
-import yaml
-
-from safe_legged_c3bf.evaluation.results import RUN_COLUMNS, attach_overhead, write_csv
+from safe_legged_c3bf.evaluation.metrics import attach_overhead
+from safe_legged_c3bf.evaluation.results import RUN_COLUMNS, write_csv
 from safe_legged_c3bf.evaluation.results import write_results as _write_results
 from safe_legged_c3bf.evaluation.runner import Runner, RunSpec
+from safe_legged_c3bf.evaluation.suites import (
+    CI_SCENARIO,
+    DEFAULT_RANDOM_SEEDS,
+    NAMED_SCENARIOS,
+    PAPER_SCENARIOS,
+    SUITES,
+    Case,
+    plan_cases,
+    plan_runs,
+)
 from safe_legged_c3bf.run.quiet_stderr import quiet_stderr
 
-#: Evaluation scenarios in config/scenarios: name -> kind (robot comes from the file).
-PAPER_SCENARIOS = {
-    "quadruped_static": "static",
-    "quadruped_moving": "moving",
-    "quadruped_horizontal": "horizontal",
-    "biped_static": "static",
-    "biped_moving": "moving",
-}
-NAMED_SCENARIOS = PAPER_SCENARIOS | {
-    "quadruped_multi": "multi",
-    "quadruped_head_on": "head_on",
-    "quadruped_crossing": "crossing",
-    "quadruped_bar_and_pillar": "bar_and_pillar",
-}
-CI_SCENARIO = "quadruped_ci"
-SUITES = ("paper", "named", "random-quadruped", "random-biped", "all", "ci")
-DEFAULT_RANDOM_SEEDS = 5
+__all__ = [  # the suites and their planning are re-exported from evaluation.suites
+    "CI_SCENARIO", "DEFAULT_RANDOM_SEEDS", "EXIT_FAILED", "EXIT_OK", "EXIT_USAGE",
+    "NAMED_SCENARIOS", "PAPER_SCENARIOS", "SUITES", "Case", "build_parser", "combine", "main",
+    "plan_cases", "plan_runs",
+]
+
 EXIT_OK, EXIT_FAILED, EXIT_USAGE = 0, 1, 2
-
-
-@dataclass
-class Case:
-    """One scenario (and seed) of a suite, before it is split into runs."""
-
-    case: str
-    scenario: str  # name or path
-    robot: str
-    kind: str
-    duration: float
-    raw: dict[str, Any]  # the scenario mapping (to derive the obstacle-free variant)
-    seed: int | None = None
-    baseline: bool = True  # also run without the filter
-    free: bool = True  # also run without obstacles
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -114,117 +96,11 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-# ------------------------------------------------------------------------------ planning
-
-
-def _load_raw(name_or_path: str) -> tuple[Path, dict[str, Any]]:
-    from safe_legged_c3bf.sim.scenario import load_scenario, resolve_scenario
-
-    path = resolve_scenario(name_or_path)
-    load_scenario(path)  # validate (ScenarioError names the field)
-    raw = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
-    raw.setdefault("name", path.stem)
-    return path, raw
-
-
-def _named_cases(items: dict[str, str], seeds: int | None) -> list[Case]:
-    """Cases of scenarios given by name or path (-> kind), ``seeds`` perception seeds each."""
-    cases = []
-    for item, kind in items.items():
-        path, raw = _load_raw(item)
-        name = str(raw.get("name", path.stem))
-        robot = _robot_kind(raw)
-        duration = float(raw.get("duration", 30.0))
-        if not seeds or seeds <= 1:
-            cases.append(Case(name, item, robot, kind, duration, raw))
-            continue
-        base = int(raw.get("seed", 0))
-        for k in range(seeds):
-            cases.append(Case(f"{name}@seed{base + k}", item, robot, kind, duration, raw,
-                              seed=base + k))
-    names = [c.case for c in cases]
-    duplicates = sorted({n for n in names if names.count(n) > 1})
-    if duplicates:
-        from safe_legged_c3bf.sim.scenario import ScenarioError
-
-        raise ScenarioError(f"scenario names given twice: {', '.join(duplicates)}")
-    return cases
-
-
-def _robot_kind(raw: dict[str, Any]) -> str:
-    from safe_legged_c3bf.sim.scenario import parse_scenario
-
-    return parse_scenario(raw, name=str(raw.get("name", "scenario"))).robot.kind
-
-
-def _random_cases(robot: str, seeds: int, start: int, out: Path) -> list[Case]:
-    from safe_legged_c3bf.evaluation import random_scenario as rs
-
-    cases = []
-    for seed in range(start, start + seeds):
-        data = rs.generate_scenario(robot, seed)
-        path = rs.write_scenario(out / "scenarios" / f"{data['name']}.yaml", data)
-        cases.append(Case(data["name"], str(path), robot, f"random_{robot}",
-                          float(data["duration"]), data))
-    return cases
-
-
-def plan_cases(opts: argparse.Namespace, out: Path) -> list[Case]:
-    """The cases of the requested suite (or --scenario list)."""
-    if opts.scenario:
-        items = {}
-        for item in opts.scenario:
-            stem = Path(item).stem if item.endswith((".yaml", ".yml")) else item
-            items[item] = (NAMED_SCENARIOS | {CI_SCENARIO: "static"}).get(stem, "custom")
-        return _named_cases(items, opts.seeds)
-    suite = opts.suite
-    n_random = opts.seeds if opts.seeds is not None else DEFAULT_RANDOM_SEEDS
-    if suite == "ci":
-        path, raw = _load_raw(CI_SCENARIO)
-        return [Case(CI_SCENARIO, CI_SCENARIO, _robot_kind(raw), "static",
-                     float(raw.get("duration", 15.0)), raw, baseline=False, free=False)]
-    if suite == "paper":
-        return _named_cases(PAPER_SCENARIOS, opts.seeds)
-    if suite == "named":
-        return _named_cases(NAMED_SCENARIOS, opts.seeds)
-    if suite == "random-quadruped":
-        return _random_cases("quadruped", n_random, opts.seed_start, out)
-    if suite == "random-biped":
-        return _random_cases("biped", n_random, opts.seed_start, out)
-    # all
-    return (_named_cases(NAMED_SCENARIOS, None)
-            + _random_cases("quadruped", n_random, opts.seed_start, out)
-            + _random_cases("biped", n_random, opts.seed_start, out))
-
-
-def plan_runs(cases: list[Case], opts: argparse.Namespace, out: Path, suite: str) -> list:
-    """RunSpecs (filter on, filter off, obstacle-free) of every case, in run order."""
-    from safe_legged_c3bf.evaluation import random_scenario as rs
-
-    specs: list[RunSpec] = []
-    for c in cases:
-        common = dict(case=c.case, robot=c.robot, kind=c.kind, suite=suite, seed=c.seed,
-                      duration=opts.duration)
-        specs.append(RunSpec(run_id=f"{c.case}__filter", scenario=c.scenario,
-                             filter_enabled=True, **common))
-        if c.baseline and not opts.no_baseline:
-            specs.append(RunSpec(run_id=f"{c.case}__nofilter", scenario=c.scenario,
-                                 filter_enabled=False, **common))
-        if c.free and not opts.no_free:
-            free = rs.without_obstacles(c.raw)
-            path = rs.write_scenario(out / "scenarios" / f"{free['name']}.yaml", free)
-            specs.append(RunSpec(run_id=f"{c.case}__free", scenario=str(path),
-                                 filter_enabled=True, variant="free", **common))
-    return specs
-
-
 # ------------------------------------------------------------------------------ main
 
 
 def _sigterm(signum: int, frame) -> None:  # noqa: ANN001
     raise KeyboardInterrupt
-
-
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -233,11 +109,9 @@ def main(argv: list[str] | None = None) -> int:
     with quiet_stderr():
         from safe_legged_c3bf.sim.scenario import ScenarioError
 
-    if opts.jobs < 1 or (opts.seeds is not None and opts.seeds < 1):
-        print("evaluate: --jobs and --seeds must be >= 1", file=sys.stderr)
-        return EXIT_USAGE
-    if opts.duration is not None and not opts.duration > 0:
-        print("evaluate: --duration must be positive", file=sys.stderr)
+    problem = _usage_problem(opts)
+    if problem:
+        print(f"evaluate: {problem}", file=sys.stderr)
         return EXIT_USAGE
     if opts.combine:
         return combine(opts.combine, opts.out, not opts.no_figures, argv)
@@ -253,13 +127,7 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_USAGE
     durations = {s.run_id: float(opts.duration or c.duration)
                  for c in cases for s in specs if s.case == c.case}
-    print(f"evaluate: suite {suite}: {len(cases)} scenario(s), {len(specs)} run(s), "
-          f"{opts.jobs} at a time{', in-process' if opts.in_process else ''}; output {out}",
-          flush=True)
-    sim_total = sum(durations.values())
-    print(f"evaluate: {sim_total:.0f} s of sim time in total "
-          f"(at a real-time factor of ~0.35 about {sim_total / 0.35 / opts.jobs / 60:.0f} min)",
-          flush=True)
+    _announce(suite, cases, specs, durations, opts, out)
     if opts.dry_run:
         for s in specs:
             print(f"  {s.run_id}: {s.scenario} filter {'on' if s.filter_enabled else 'OFF'}"
@@ -268,7 +136,48 @@ def main(argv: list[str] | None = None) -> int:
     if not specs:
         print("evaluate: nothing to run", file=sys.stderr)
         return EXIT_FAILED
+    records, interrupted, wall = _run(specs, durations, opts, out)
+    notes = [
+        f"Suite `{suite}`: {len(cases)} scenario(s), {len(records)} of {len(specs)} run(s) "
+        f"finished in {wall / 60:.1f} min wall, {opts.jobs} at a time"
+        f"{' (in-process)' if opts.in_process else ''}; "
+        f"{datetime.now().strftime('%Y-%m-%d %H:%M')}.",
+        _command_note(argv),
+    ]
+    paths = _write_results(records, out, title=f"Evaluation: {suite}", notes=notes,
+                           figures=not opts.no_figures)
+    _print_summary(records, paths)
+    return _exit_code(records, specs, interrupted)
 
+
+def _usage_problem(opts: argparse.Namespace) -> str | None:
+    """What is wrong with options argparse accepts (None if nothing)."""
+    if opts.jobs < 1 or (opts.seeds is not None and opts.seeds < 1):
+        return "--jobs and --seeds must be >= 1"
+    if opts.duration is not None and not opts.duration > 0:
+        return "--duration must be positive"
+    return None
+
+
+def _announce(suite: str, cases: list[Case], specs: list[RunSpec], durations: dict[str, float],
+              opts: argparse.Namespace, out: Path) -> None:
+    """Print what will run and a rough wall-time estimate (min)."""
+    print(f"evaluate: suite {suite}: {len(cases)} scenario(s), {len(specs)} run(s), "
+          f"{opts.jobs} at a time{', in-process' if opts.in_process else ''}; output {out}",
+          flush=True)
+    sim_total = sum(durations.values())
+    print(f"evaluate: {sim_total:.0f} s of sim time in total "
+          f"(at a real-time factor of ~0.35 about {sim_total / 0.35 / opts.jobs / 60:.0f} min)",
+          flush=True)
+
+
+def _run(specs: list[RunSpec], durations: dict[str, float], opts: argparse.Namespace,
+         out: Path) -> tuple[list[dict[str, Any]], bool, float]:
+    """Run ``specs``: (result rows, interrupted, wall time in s).
+
+    results.csv is rewritten after every finished run; Ctrl-C or SIGTERM stops the runs and
+    keeps the rows of the finished ones.
+    """
     done: list[dict[str, Any]] = []
 
     def on_result(rec: dict[str, Any]) -> None:
@@ -288,18 +197,11 @@ def main(argv: list[str] | None = None) -> int:
         print("evaluate: interrupted; writing the results of the finished runs", flush=True)
     finally:
         signal.signal(signal.SIGTERM, previous)
-    wall = time.monotonic() - t0
-    notes = [
-        f"Suite `{suite}`: {len(cases)} scenario(s), {len(records)} of {len(specs)} run(s) "
-        f"finished in {wall / 60:.1f} min wall, {opts.jobs} at a time"
-        f"{' (in-process)' if opts.in_process else ''}; "
-        f"{datetime.now().strftime('%Y-%m-%d %H:%M')}.",
-        "Command: `python -m safe_legged_c3bf.evaluate "
-        + " ".join(argv if argv is not None else sys.argv[1:]) + "`",
-    ]
-    paths = _write_results(records, out, title=f"Evaluation: {suite}", notes=notes,
-                           figures=not opts.no_figures)
-    _print_summary(records, paths)
+    return records, interrupted, time.monotonic() - t0
+
+
+def _exit_code(records: list[dict[str, Any]], specs: list[RunSpec], interrupted: bool) -> int:
+    """130 if interrupted, EXIT_FAILED if some run could not be executed, else EXIT_OK."""
     if interrupted:
         return 130
     unexecuted = [r for r in records if r["outcome"] == "startup_failed"]
@@ -308,6 +210,12 @@ def main(argv: list[str] | None = None) -> int:
               + ", ".join(r["run_id"] for r in unexecuted), file=sys.stderr)
         return EXIT_FAILED
     return EXIT_OK
+
+
+def _command_note(argv: list[str] | None) -> str:
+    """The command line, for the notes of results.md."""
+    return ("Command: `python -m safe_legged_c3bf.evaluate "
+            + " ".join(argv if argv is not None else sys.argv[1:]) + "`")
 
 
 def combine(folders: list[Path], out: Path | None, figures: bool,
@@ -332,8 +240,7 @@ def combine(folders: list[Path], out: Path | None, figures: bool,
     notes = [
         f"Combined from {', '.join(str(f) for f in folders)} ({len(records)} runs); "
         f"{datetime.now().strftime('%Y-%m-%d %H:%M')}.",
-        "Command: `python -m safe_legged_c3bf.evaluate "
-        + " ".join(argv if argv is not None else sys.argv[1:]) + "`",
+        _command_note(argv),
     ]
     paths = _write_results(attach_overhead(records), out, title="Evaluation: combined",
                            notes=notes, figures=figures)
@@ -342,7 +249,7 @@ def combine(folders: list[Path], out: Path | None, figures: bool,
 
 
 def _print_summary(records: list[dict[str, Any]], paths: dict[str, Path]) -> None:
-    from safe_legged_c3bf.evaluation.results import aggregate
+    from safe_legged_c3bf.evaluation.metrics import aggregate
 
     print("\nevaluate: summary (obstacle runs; rates over valid runs)")
     for row in aggregate(records, ("robot", "filter")):

@@ -14,6 +14,7 @@ import pytest
 
 from safe_legged_c3bf import evaluate
 from safe_legged_c3bf.evaluation import random_scenario as rs
+from safe_legged_c3bf.evaluation.random_obstacles import leaves_passage
 from safe_legged_c3bf.evaluation.results import (
     aggregate,
     attach_overhead,
@@ -137,10 +138,10 @@ def test_passage_check_sees_a_mover_stopping_beside_a_pillar():
               "motion": {"type": "static"}}
     mover = {"plane": "vertical", "position": [3.0, 3.0], "semi_axes": [0.2, 0.2],
              "motion": {"type": "waypoints", "waypoints": [[0.9, 0.3]], "speed": 0.2}}
-    assert not rs._leaves_passage(mover, [pillar], 1.0)
-    assert rs._leaves_passage(mover, [pillar], 0.3)
+    assert not leaves_passage(mover, [pillar], 1.0)
+    assert leaves_passage(mover, [pillar], 0.3)
     far = {**mover, "motion": {**mover["motion"], "waypoints": [[2.0, 1.0]]}}
-    assert rs._leaves_passage(far, [pillar], 1.0)
+    assert leaves_passage(far, [pillar], 1.0)
 
 
 def test_random_mix_has_every_obstacle_type():

@@ -30,6 +30,8 @@ robot stood safe in the pocket until the time ran out). :func:`passages` re-chec
 and :func:`obstacle_gaps` the "in the way" property on any scenario: the straight-line robot
 at its nominal speed meets every obstacle.
 
+Parts: the ranges drawn from are in :mod:`.random_profile`, the draw of one obstacle in
+:mod:`.random_obstacles`, the checks in :mod:`.random_checks` (all re-exported here).
 ``python -m safe_legged_c3bf.evaluation.random_scenario --robot biped --seed 4`` prints one.
 """
 
@@ -38,336 +40,53 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import yaml
 
-from safe_legged_c3bf.sim.scenario import ObstacleConfig, Scenario, parse_scenario
+from safe_legged_c3bf.evaluation.random_checks import (
+    meeting_walks,
+    moving,
+    nominal_robot_position,
+    obstacle_gaps,
+    passages,
+    start_goal_clearance,
+)
+from safe_legged_c3bf.evaluation.random_obstacles import (
+    bar_obstacle,
+    conflict_stations,
+    leaves_passage,
+    moving_obstacle,
+    round_mm,
+    static_obstacle,
+    xy_mm,
+)
+from safe_legged_c3bf.evaluation.random_profile import (
+    BIPED_FILTER_OVERRIDES,
+    MOVING_KINDS,
+    PROFILES,
+    ROBOTS,
+    RandomProfile,
+    profile_for,
+)
+from safe_legged_c3bf.sim.scenario import Scenario, parse_scenario
 
-ROBOTS = ("quadruped", "biped")
-MOVING_KINDS = ("crossing", "head_on", "oblique")
+__all__ = [  # the profile and the checks are re-exported from their modules
+    "BAR_FILTER_OVERRIDES", "BAR_PLANNER_OVERRIDES", "BIPED_FILTER_OVERRIDES", "MOVING_KINDS",
+    "PROFILES", "ROBOTS", "RandomProfile", "generate_scenario", "main", "meeting_walks",
+    "moving", "nominal_robot_position", "obstacle_gaps", "passages", "profile_for",
+    "random_scenario", "scenario_yaml", "start_goal_clearance", "without_obstacles",
+    "write_scenario",
+]
+
 #: Filter overrides of scenarios with a bar (as in config/scenarios/quadruped_horizontal.yaml).
 BAR_FILTER_OVERRIDES = {"safety_margin": 0.03, "min_height": 0.18, "max_height": 0.285}
 #: Planner overrides of scenarios with a bar: regain the height gently behind it.
 BAR_PLANNER_OVERRIDES = {"k_z": 0.3}
-#: Filter overrides of biped scenarios (as in config/scenarios/biped_static.yaml): the biped's
-#: command range (config/biped_controller.yaml) and body height instead of the A1's.
-BIPED_FILTER_OVERRIDES = {
-    "max_speed": 0.2, "max_reverse_speed": 0.1, "max_accel": 0.3, "max_yaw_rate": 0.4,
-    "max_yaw_accel": 0.8, "min_height": 0.7, "max_height": 0.9,
-}
-
-
-@dataclass(frozen=True)
-class RandomProfile:
-    """Ranges the generator draws from, per robot kind (SI units: m, s, rad, m/s).
-
-    Attributes:
-        robot: 'quadruped' or 'biped'.
-        cruise_speed: planner cruise speed (m/s).
-        nominal_speed: speed the robot actually walks at without obstacles (m/s), used to
-            time the moving obstacles (measured on obstacle-free runs).
-        start_delay: time before the robot starts to move (s).
-        goal_distance: (min, max) start-goal distance (m).
-        duration: run length (s, sim time).
-        obstacle_count: (min, max) number of obstacles (inclusive).
-        obstacle_radius: (min, max) larger semi-axis a (m).
-        aspect: (min, max) ratio b / a of the smaller semi-axis.
-        height: (min, max) height of vertical obstacles (m).
-        mover_speed: (min, max) speed of moving obstacles (m/s).
-        moving_probability: chance that an obstacle moves.
-        kind_weights: relative weights of the moving kinds (crossing, head_on, oblique).
-        bar_probability: chance that one station holds a bar instead (quadruped only).
-        half_width: half the robot's width across the path (m): a vertical obstacle is in
-            the way when the straight path passes closer than its smaller semi-axis plus this.
-        passage: least surface-to-surface gap (m) between a mover at rest (waiting or
-            stopped) and any other obstacle at rest: the filter's inflation diameter (0.98 m
-            for the A1, 1.02 m for the biped) plus 0.4 m, so no dead end forms.
-        in_way_fraction: the lateral offset of a conflict point is at most this share of
-            (smaller semi-axis + half_width).
-        start_clearance: least distance (m) between any obstacle surface and the start, over
-            the obstacle's whole motion.
-        goal_clearance: the same for the goal.
-        first_station: least distance (m) from the start to a conflict station.
-        last_station: least distance (m) from a conflict station to the goal.
-        spacing: least distance (m) between two conflict stations along the path.
-        pre_travel: (min, max) distance (m) a mover walks before the conflict point.
-        post_travel: (min, max) distance (m) it walks after it before stopping: far enough
-            for its inflated circle (semi-axis + ~0.5 m) to leave the path, or the stopped
-            mover blocks the way a second time. Neither travel is ever shortened (a mover
-            whose segment comes near the start or the goal is drawn again): see
-            :func:`meeting_walks`.
-        random_heading: draw the robot's heading (else yaw 0).
-        trunk_top: top of the robot's body when standing (m); a bar is in the way below it.
-        bar_underside: (min, max) height of a bar's underside (m).
-        bar_radius: (min, max) radius of a bar's cross-section (m).
-        perception: the scenario's perception section.
-        filter_overrides: the scenario's ``filter:`` section (the robot's command range and
-            height when the filter's defaults, the A1's, do not fit).
-
-    """
-
-    robot: str
-    cruise_speed: float
-    nominal_speed: float
-    start_delay: float
-    goal_distance: tuple[float, float]
-    duration: float
-    obstacle_count: tuple[int, int]
-    obstacle_radius: tuple[float, float]
-    aspect: tuple[float, float]
-    height: tuple[float, float]
-    mover_speed: tuple[float, float]
-    moving_probability: float
-    kind_weights: tuple[float, float, float]
-    bar_probability: float
-    half_width: float
-    in_way_fraction: float
-    passage: float
-    start_clearance: float
-    goal_clearance: float
-    first_station: float
-    last_station: float
-    spacing: float
-    pre_travel: tuple[float, float]
-    post_travel: tuple[float, float]
-    random_heading: bool = True
-    trunk_top: float = 0.337
-    bar_underside: tuple[float, float] = (0.295, 0.305)
-    bar_radius: tuple[float, float] = (0.04, 0.06)
-    perception: dict[str, Any] = field(default_factory=lambda: {
-        "rate": 20.0, "position_noise_std": 0.02, "size_noise_std": 0.005,
-        "dropout_probability": 0.05, "max_range": 6.0,
-    })
-    filter_overrides: dict[str, Any] = field(default_factory=dict)
-
-
-#: Default profiles. Timing measured on obstacle-free runs: the A1 at 0.4 m/s walks
-#: x(t) = 0.4 (t - 0.4) m; the biped at 0.2 m/s (the ZMP walker's command limit)
-#: x(t) = 0.195 (t - 2.0) m and reaches a goal 3.2 m away in 16.8 s, 3.9 m in 20 s. It is slow
-#: to walk around an obstacle (+6-7 s; a slow mover can keep it waiting for 20 s), hence the
-#: short goal distances and the 45 s budget. Durations are time budgets: evaluations end a
-#: run once its outcome is settled.
-PROFILES: dict[str, RandomProfile] = {
-    "quadruped": RandomProfile(
-        robot="quadruped", cruise_speed=0.4, nominal_speed=0.4, start_delay=0.4,
-        goal_distance=(5.5, 7.0), duration=36.0, obstacle_count=(1, 3),
-        obstacle_radius=(0.18, 0.35), aspect=(0.6, 1.0), height=(0.8, 1.8),
-        mover_speed=(0.15, 0.35), moving_probability=0.5, kind_weights=(0.4, 0.3, 0.3),
-        bar_probability=0.2, half_width=0.15, in_way_fraction=0.5, passage=1.4,
-        start_clearance=1.0,
-        goal_clearance=1.0, first_station=2.5, last_station=1.5, spacing=1.2,
-        pre_travel=(1.5, 3.5), post_travel=(1.5, 2.5),
-    ),
-    "biped": RandomProfile(
-        robot="biped", cruise_speed=0.2, nominal_speed=0.195, start_delay=2.0,
-        goal_distance=(3.0, 3.6), duration=45.0, obstacle_count=(1, 2),
-        obstacle_radius=(0.15, 0.3), aspect=(0.6, 1.0), height=(1.0, 1.8),
-        mover_speed=(0.1, 0.2), moving_probability=0.7, kind_weights=(0.4, 0.3, 0.3),
-        bar_probability=0.0, half_width=0.15, in_way_fraction=0.5, passage=1.45,
-        start_clearance=0.9,
-        goal_clearance=0.9, first_station=1.4, last_station=1.2, spacing=0.9,
-        pre_travel=(1.0, 2.5), post_travel=(1.3, 2.0), trunk_top=1.1,
-        filter_overrides=dict(BIPED_FILTER_OVERRIDES),
-    ),
-}
-
-
-def profile_for(robot: str, **changes: Any) -> RandomProfile:
-    """The default profile of ``robot`` ('quadruped' / 'biped') with ``changes`` applied."""
-    if robot not in PROFILES:
-        raise ValueError(f"robot must be one of {', '.join(ROBOTS)}, got {robot!r}")
-    return replace(PROFILES[robot], **changes) if changes else PROFILES[robot]
-
-
-# ------------------------------------------------------------------------------ geometry
-
-
-def _segment_point_distance(p0: np.ndarray, p1: np.ndarray, q: np.ndarray) -> float:
-    """Distance from point ``q`` to the segment p0-p1 (2D)."""
-    d = p1 - p0
-    denom = float(d @ d)
-    u = 0.0 if denom <= 0.0 else float(np.clip((q - p0) @ d / denom, 0.0, 1.0))
-    return float(np.linalg.norm(p0 + u * d - q))
-
-
-def _r(x: float) -> float:
-    """Round to mm (the YAML stays readable; clearances are far larger)."""
-    return round(float(x), 3)
-
-
-def _xy(p: np.ndarray) -> list[float]:
-    return [_r(p[0]), _r(p[1])]
-
-
-# ------------------------------------------------------------------------------ generator
-
-
-def _stations(rng: np.random.Generator, n: int, lo: float, hi: float, spacing: float) -> list:
-    """``n`` sorted points in [lo, hi], at least ``spacing`` apart (fewer if they do not fit)."""
-    if hi < lo:
-        return []
-    n = max(0, min(n, int((hi - lo) // spacing) + 1))
-    free = (hi - lo) - (n - 1) * spacing
-    u = np.sort(rng.uniform(0.0, free, n))
-    return [lo + float(u[i]) + i * spacing for i in range(n)]
-
-
-def _static_obstacle(
-    rng, p: RandomProfile, index: int, point: np.ndarray, normal: np.ndarray,
-    start: np.ndarray, goal: np.ndarray,
-) -> dict[str, Any] | None:
-    a = rng.uniform(*p.obstacle_radius)
-    b = a * rng.uniform(*p.aspect)
-    offset = rng.uniform(-1.0, 1.0) * p.in_way_fraction * (b + p.half_width)
-    centre = point + offset * normal
-    # Keep the surface clear of the start and the goal: shrink the ellipse if needed.
-    room = min(float(np.linalg.norm(centre - start)) - p.start_clearance,
-               float(np.linalg.norm(centre - goal)) - p.goal_clearance)
-    if room < a:
-        if room < 0.1:
-            return None
-        b, a = b * room / a, room
-    return {
-        "id": f"pillar_{index}",
-        "plane": "vertical",
-        "position": _xy(centre),
-        "semi_axes": [_r(a), _r(b)],
-        "orientation": _r(rng.uniform(0.0, math.pi)),
-        "extent": _r(rng.uniform(*p.height)),
-        "color": [0.55, 0.55, 0.6, 1.0],
-        "motion": {"type": "static"},
-    }
-
-
-def _moving_obstacle(
-    rng, p: RandomProfile, index: int, station: float, point: np.ndarray,
-    tangent: np.ndarray, normal: np.ndarray, start: np.ndarray, goal: np.ndarray,
-) -> dict[str, Any] | None:
-    """A mover through the conflict point ``point`` at the robot's nominal arrival time."""
-    weights = np.asarray(p.kind_weights, dtype=float)
-    kind = MOVING_KINDS[int(rng.choice(len(MOVING_KINDS), p=weights / weights.sum()))]
-    side = 1.0 if rng.random() < 0.5 else -1.0
-    if kind == "crossing":
-        psi = side * (math.pi / 2 + rng.uniform(-0.25, 0.25))
-    elif kind == "head_on":
-        psi = math.pi + rng.uniform(-0.15, 0.15)
-    else:
-        psi = side * rng.uniform(2.0, 2.6)
-    direction = math.cos(psi) * tangent + math.sin(psi) * normal
-    a = rng.uniform(*p.obstacle_radius) * 0.85  # people-sized rather than pillar-sized
-    b = a * rng.uniform(0.75, 1.0)
-    speed = rng.uniform(*p.mover_speed)
-    offset = rng.uniform(-1.0, 1.0) * 0.5 * p.in_way_fraction * (b + p.half_width)
-    meet = point + offset * normal
-    t_meet = p.start_delay + station / p.nominal_speed
-    pre = min(rng.uniform(*p.pre_travel), speed * t_meet)
-    post = rng.uniform(*p.post_travel)
-    # Shrink the approach (never below ``least_pre``) until the segment keeps clear of the
-    # start and the goal, else draw again. The walk past the conflict point is never
-    # shortened: a mover that stopped short of it stopped where the robot waits for it to
-    # pass (seen: biped seeds 4, 10 and 14, walkers stopping 0.3-0.4 m beside the path, at
-    # twice the biped's reverse speed); one that starts just before it stands beside the
-    # path and walks into the robot as it arrives (biped seed 10 once its stop was fixed).
-    least_pre = min(p.pre_travel[0], pre)
-    for _ in range(40):
-        p0, p1 = meet - pre * direction, meet + post * direction
-        if (_segment_point_distance(p0, p1, start) >= a + p.start_clearance
-                and _segment_point_distance(p0, p1, goal) >= a + p.goal_clearance):
-            break
-        if pre <= least_pre:
-            return None
-        pre = max(pre * 0.9, least_pre)
-    else:
-        return None
-    start_time = max(t_meet - pre / speed, 0.0)
-    return {
-        "id": f"{kind}_{index}",
-        "plane": "vertical",
-        "position": _xy(p0),
-        "semi_axes": [_r(a), _r(b)],
-        "orientation": _r(math.atan2(direction[1], direction[0])),
-        "extent": _r(rng.uniform(*p.height)),
-        "color": [0.85, 0.35, 0.2, 1.0],
-        "motion": {
-            "type": "waypoints", "waypoints": [_xy(p1)], "speed": _r(speed), "mode": "stop",
-            "start_time": _r(start_time),
-        },
-    }
-
-
 #: Draws of a mover before its station gets a pillar instead.
 MOVER_DRAWS = 10
-
-
-def _rest_positions(obstacle: dict[str, Any]) -> list[np.ndarray]:
-    """Where a vertical obstacle stands still: its start and, for a mover, its stop."""
-    points = [np.asarray(obstacle["position"][:2], dtype=float)]
-    motion = obstacle.get("motion") or {}
-    if motion.get("type") == "waypoints":
-        points.append(np.asarray(motion["waypoints"][-1], dtype=float))
-    return points
-
-
-def _leaves_passage(new: dict[str, Any], others: list[dict[str, Any]], passage: float) -> bool:
-    """True unless a mover at rest (``new`` or one of ``others``) closes a gap with another.
-
-    Checked for every pair involving a mover: each rest position keeps ``passage`` m between
-    the circumscribed circles. Bars and static-static pairs are not checked.
-    """
-    if new.get("plane") != "vertical":
-        return True
-    new_moves = (new.get("motion") or {}).get("type") == "waypoints"
-    a_new = max(new["semi_axes"])
-    for other in others:
-        if other.get("plane") != "vertical":
-            continue
-        if not new_moves and (other.get("motion") or {}).get("type") != "waypoints":
-            continue
-        reach = a_new + max(other["semi_axes"]) + passage
-        for p in _rest_positions(new):
-            for q in _rest_positions(other):
-                if float(np.linalg.norm(p - q)) < reach:
-                    return False
-    return True
-
-
-def passages(scenario: Scenario) -> float:
-    """Least surface gap (m) between a mover at rest and any other vertical obstacle at rest.
-
-    inf when there is no such pair (circumscribed circles).
-    """
-    rest: list[tuple[bool, float, list[np.ndarray]]] = []
-    for obs in scenario.obstacles:
-        if obs.plane != "vertical":
-            continue
-        points = [np.asarray(obs.position[:2], dtype=float)]
-        if moving(obs):
-            points.append(np.asarray(obs.motion.waypoints[-1][:2], dtype=float))
-        rest.append((moving(obs), max(obs.semi_axes), points))
-    gap = math.inf
-    for i, (mi, ai, pi) in enumerate(rest):
-        for mj, aj, pj in rest[i + 1:]:
-            if mi or mj:
-                gap = min(gap, min(float(np.linalg.norm(p - q)) - ai - aj
-                                   for p in pi for q in pj))
-    return gap
-
-
-def _bar_obstacle(rng, p: RandomProfile, index: int, point: np.ndarray) -> dict[str, Any]:
-    radius = rng.uniform(*p.bar_radius)
-    underside = rng.uniform(*p.bar_underside)
-    return {
-        "id": f"bar_{index}",
-        "plane": "horizontal",
-        "position": [_r(point[0]), _r(point[1]), _r(underside + radius)],
-        "semi_axes": [_r(radius), _r(radius)],
-        "extent": 4.0,
-        "color": [0.2, 0.6, 0.25, 1.0],
-    }
 
 
 def generate_scenario(
@@ -399,24 +118,15 @@ def generate_scenario(
     start = np.zeros(2)
     goal = start + length * tangent
     count = int(rng.integers(p.obstacle_count[0], p.obstacle_count[1] + 1))
-    stations = _stations(rng, count, p.first_station, length - p.last_station, p.spacing)
+    stations = conflict_stations(rng, count, p.first_station, length - p.last_station, p.spacing)
     bar_index = int(rng.integers(len(stations))) if use_bar and stations else -1
     obstacles: list[dict[str, Any]] = []
     for i, s in enumerate(stations):
         point = start + s * tangent
         if i == bar_index:
-            obstacles.append(_bar_obstacle(rng, p, i, point))
+            obstacles.append(bar_obstacle(rng, p, i, point))
             continue
-        mover = None
-        if rng.random() < p.moving_probability:
-            for _ in range(MOVER_DRAWS):
-                mover = _moving_obstacle(rng, p, i, s, point, tangent, normal, start, goal)
-                if mover is None or _leaves_passage(mover, obstacles, p.passage):
-                    break
-                mover = None
-        obstacle = mover or _static_obstacle(rng, p, i, point, normal, start, goal)
-        if obstacle is not None and not _leaves_passage(obstacle, obstacles, p.passage):
-            obstacle = None  # a pillar beside a resting mover: leave the station empty
+        obstacle = _station_obstacle(rng, p, i, s, point, tangent, normal, start, goal, obstacles)
         if obstacle is not None:
             obstacles.append(obstacle)
     kinds = sorted({o["id"].rsplit("_", 1)[0] for o in obstacles})
@@ -427,8 +137,8 @@ def generate_scenario(
             f"{math.degrees(yaw):.0f} deg, {len(obstacles)} obstacle(s) in the way "
             f"({', '.join(kinds) or 'none'})."
         ),
-        "robot": {"kind": robot, "position": _xy(start), "yaw": _r(yaw)},
-        "goal": {"position": _xy(goal), "tolerance": 0.3},
+        "robot": {"kind": robot, "position": xy_mm(start), "yaw": round_mm(yaw)},
+        "goal": {"position": xy_mm(goal), "tolerance": 0.3},
         "duration": float(p.duration),
         "seed": int(seed),
         "perception": dict(p.perception),
@@ -442,6 +152,30 @@ def generate_scenario(
     if overrides:
         data["filter"] = overrides
     return data
+
+
+def _station_obstacle(
+    rng: np.random.Generator, p: RandomProfile, i: int, s: float, point: np.ndarray,
+    tangent: np.ndarray, normal: np.ndarray, start: np.ndarray, goal: np.ndarray,
+    placed: list[dict[str, Any]],
+) -> dict[str, Any] | None:
+    """What stands at station ``i`` (``s`` m from the start, at ``point``; odom x-y, m).
+
+    A mover with probability ``moving_probability`` (drawn up to :data:`MOVER_DRAWS` times
+    until it leaves the passages to the obstacles already ``placed`` open), else a pillar;
+    None when no pillar fits or it would close a passage too.
+    """
+    mover = None
+    if rng.random() < p.moving_probability:
+        for _ in range(MOVER_DRAWS):
+            mover = moving_obstacle(rng, p, i, s, point, tangent, normal, start, goal)
+            if mover is None or leaves_passage(mover, placed, p.passage):
+                break
+            mover = None
+    obstacle = mover or static_obstacle(rng, p, i, point, normal, start, goal)
+    if obstacle is not None and not leaves_passage(obstacle, placed, p.passage):
+        obstacle = None  # a pillar beside a resting mover: leave the station empty
+    return obstacle
 
 
 def random_scenario(robot: str = "quadruped", seed: int = 0, **kwargs: Any) -> Scenario:
@@ -478,116 +212,6 @@ def without_obstacles(data: dict[str, Any], suffix: str = "_free") -> dict[str, 
     out["name"] = f"{data.get('name', 'scenario')}{suffix}"
     out["description"] = f"{data.get('description', '')} Obstacles removed.".strip()
     return out
-
-
-# ------------------------------------------------------------------------------ checks
-
-
-def nominal_robot_position(scenario: Scenario, t: float, profile: RandomProfile) -> np.ndarray:
-    """Where a robot walking the straight start-goal line at the nominal speed is at ``t``."""
-    start = np.asarray(scenario.robot.position, dtype=float)
-    goal = np.asarray(scenario.goal.position, dtype=float)
-    length = float(np.linalg.norm(goal - start))
-    if length <= 0.0:
-        return start
-    s = min(max(t - profile.start_delay, 0.0) * profile.nominal_speed, length)
-    return start + (goal - start) * (s / length)
-
-
-def _sample_times(scenario: Scenario, dt: float) -> np.ndarray:
-    """Sample times (s) over the whole run, ``dt`` apart."""
-    return np.arange(0.0, scenario.duration + 1e-9, dt)
-
-
-def _nominal_path(scenario: Scenario, times: np.ndarray, p: RandomProfile) -> np.ndarray:
-    """``(len(times), 2)`` positions of the nominal straight-line robot."""
-    return np.array([nominal_robot_position(scenario, t, p) for t in times])
-
-
-def _scripted_centres(obs: ObstacleConfig, times: np.ndarray) -> np.ndarray:
-    """``(len(times), 2)`` x-y centres of ``obs`` along its scripted motion."""
-    from safe_legged_c3bf.sim.obstacles import MotionScript
-
-    script = MotionScript(obs.position, obs.motion)
-    return np.array([script.state(float(t))[0][:2] for t in times])
-
-
-def obstacle_gaps(
-    scenario: Scenario, profile: RandomProfile | None = None, dt: float = 0.05
-) -> dict[str, float]:
-    """Per obstacle: how far the nominal straight-line robot stays from colliding with it (m).
-
-    Vertical obstacles: min over time of (centre distance - smaller semi-axis - half_width);
-    negative means the unfiltered robot runs into it. Horizontal bars: (underside height -
-    trunk top) where the bar spans the path, +inf when it does not. Uses
-    :class:`~safe_legged_c3bf.sim.obstacles.MotionScript` for the scripted motion.
-    """
-    p = profile or profile_for(scenario.robot.kind)
-    times = _sample_times(scenario, dt)
-    robot_xy = _nominal_path(scenario, times, p)
-    gaps: dict[str, float] = {}
-    for obs in scenario.obstacles:
-        if obs.plane == "horizontal":
-            lo, hi = robot_xy[:, 0].min(), robot_xy[:, 0].max()
-            half = obs.extent / 2.0
-            spans = (lo <= obs.position[0] <= hi
-                     and np.any(np.abs(robot_xy[:, 1] - obs.position[1]) <= half))
-            underside = obs.position[2] - max(obs.semi_axes)
-            gaps[obs.id] = underside - p.trunk_top if spans else math.inf
-            continue
-        centres = _scripted_centres(obs, times)
-        dist = np.linalg.norm(centres - robot_xy, axis=1)
-        gaps[obs.id] = float(dist.min() - min(obs.semi_axes) - p.half_width)
-    return gaps
-
-
-def meeting_walks(
-    scenario: Scenario, profile: RandomProfile | None = None, dt: float = 0.05
-) -> dict[str, tuple[float, float]]:
-    """Per mover: how far (m) it walks before and after its closest approach to the robot.
-
-    The robot is the nominal one walking the straight start-goal line
-    (:func:`nominal_robot_position`). A mover that stops soon after meeting it stops where
-    a filtered robot, which waited for it to pass, stands; one that starts soon before
-    meeting it stands beside the path and walks into the robot as it arrives.
-    """
-    p = profile or profile_for(scenario.robot.kind)
-    times = _sample_times(scenario, dt)
-    robot_xy = _nominal_path(scenario, times, p)
-    walks: dict[str, tuple[float, float]] = {}
-    for obs in scenario.obstacles:
-        if obs.plane == "horizontal" or not moving(obs):
-            continue
-        centres = _scripted_centres(obs, times)
-        k = int(np.argmin(np.linalg.norm(centres - robot_xy, axis=1)))
-        steps = np.linalg.norm(np.diff(centres, axis=0), axis=1)
-        walks[obs.id] = (float(steps[:k].sum()), float(steps[k:].sum()))
-    return walks
-
-
-def start_goal_clearance(scenario: Scenario, dt: float = 0.05) -> tuple[float, float]:
-    """Least distances (m) from any obstacle's surface to the start and to the goal.
-
-    Over the whole run, with the obstacle's circumscribed circle (inf without obstacles;
-    bars are skipped).
-    """
-    start = np.asarray(scenario.robot.position, dtype=float)
-    goal = np.asarray(scenario.goal.position, dtype=float)
-    times = _sample_times(scenario, dt)
-    to_start, to_goal = math.inf, math.inf
-    for obs in scenario.obstacles:
-        if obs.plane == "horizontal":
-            continue
-        centres = _scripted_centres(obs, times)
-        a = max(obs.semi_axes)
-        to_start = min(to_start, float(np.linalg.norm(centres - start, axis=1).min() - a))
-        to_goal = min(to_goal, float(np.linalg.norm(centres - goal, axis=1).min() - a))
-    return to_start, to_goal
-
-
-def moving(obs: ObstacleConfig) -> bool:
-    """True when the obstacle's script moves it."""
-    return obs.motion.type != "static"
 
 
 # ------------------------------------------------------------------------------ CLI

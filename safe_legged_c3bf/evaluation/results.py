@@ -1,39 +1,36 @@
-"""Aggregate evaluation runs into tables (Markdown, CSV) and figures.
+"""Write the evaluation results: tables (Markdown, CSV) and figures.
 
 Input: the result rows of :func:`safe_legged_c3bf.evaluation.runner.record_from_report`
-(plain dicts, one per bringup run). :func:`attach_overhead` pairs every run with the
-obstacle-free run of the same case (``variant == 'free'``) and adds the time-to-goal overhead;
-:func:`aggregate` groups rows (by robot and filter, or by robot, scenario kind and filter) and
-computes, per group (metric definitions: doc/evaluation.md):
-
-* ``runs``: rows with obstacles in the group; ``run_failures``: of those, runs without a
-  trustworthy result (start-up failure, node died, wall timeout, interrupted), which the
-  rates below exclude (``valid`` = runs - run_failures);
-* ``collision_rate``, ``fall_rate``, ``goal_rate`` and ``success_rate`` (goal reached, no
-  collision, no fall) over the valid runs;
-* ``infeasible_runs``: runs with some time in the filter status RELAXED;
-* min clearance (ground truth, m): min, 10th percentile, median over runs;
-* time-to-goal overhead against the obstacle-free run (s and %): mean and max over runs
-  that reached the goal in both;
-* filter intervention share (mean) and solve times (median of the per-run medians, max of
-  the per-run 99th percentiles, max).
-
+(plain dicts, one per bringup run); the metrics are computed in
+:mod:`safe_legged_c3bf.evaluation.metrics` (definitions there and in doc/evaluation.md).
 :func:`write_results` writes ``results.md``, ``results.csv`` (one row per run),
-``summary.csv`` (the aggregate rows) and ``figures/*.png`` into a folder.
+``summary.csv`` (the aggregate rows) and ``figures/*.png`` into a folder; :func:`read_csv`
+reads a ``results.csv`` back.
 """
 
 from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
+from safe_legged_c3bf.evaluation.figures import FIGURES, write_figures
+from safe_legged_c3bf.evaluation.metrics import (
+    SUMMARY_COLUMNS,
+    aggregate,
+    attach_overhead,
+    is_success,
+    summarize_group,
+)
 from safe_legged_c3bf.evaluation.runner import RUN_FAILURES
-from safe_legged_c3bf.run.figure import figure
+
+__all__ = [  # metrics and figures are re-exported from their modules
+    "FIGURES", "RUN_COLUMNS", "RUN_TABLE", "SUMMARY_COLUMNS", "SUMMARY_HEADERS", "aggregate",
+    "attach_overhead", "is_success", "markdown_table", "read_csv", "results_markdown",
+    "summarize_group", "write_csv", "write_figures", "write_results",
+]
 
 #: Columns of results.csv, in order.
 RUN_COLUMNS = (
@@ -45,128 +42,6 @@ RUN_COLUMNS = (
     "solve_p99_ms", "solve_max_ms", "sim_time", "duration", "real_time_factor", "wall_time",
     "exit_code", "timed_out", "reason", "run_dir",
 )
-#: Columns of the aggregate tables (after the group keys).
-SUMMARY_COLUMNS = (
-    "runs", "run_failures", "valid", "collision_rate", "fall_rate", "goal_rate",
-    "success_rate", "infeasible_runs", "clearance_min", "clearance_p10", "clearance_median",
-    "overhead_mean_s", "overhead_max_s", "overhead_mean_pct", "intervention_mean",
-    "solve_median_ms", "solve_p99_max_ms", "solve_max_ms",
-)
-FIGURES = {
-    "outcomes": "outcomes.png",
-    "clearance": "clearance.png",
-    "overhead": "overhead.png",
-    "solve_time": "solve_time.png",
-    "intervention": "intervention.png",
-}
-
-
-# ------------------------------------------------------------------------------ numbers
-
-
-def _vals(rows: Iterable[dict[str, Any]], key: str) -> np.ndarray:
-    out = []
-    for r in rows:
-        v = r.get(key)
-        if isinstance(v, bool):
-            v = float(v)
-        if isinstance(v, int | float) and math.isfinite(v):
-            out.append(float(v))
-    return np.array(out, dtype=float)
-
-
-def _stat(values: np.ndarray, fn: str) -> float | None:
-    if values.size == 0:
-        return None
-    if fn == "mean":
-        return float(values.mean())
-    if fn == "median":
-        return float(np.median(values))
-    if fn == "min":
-        return float(values.min())
-    if fn == "max":
-        return float(values.max())
-    if fn == "p10":
-        return float(np.percentile(values, 10))
-    raise ValueError(fn)
-
-
-def _rate(rows: Sequence[dict[str, Any]], predicate) -> float | None:  # noqa: ANN001
-    if not rows:
-        return None
-    return sum(1 for r in rows if predicate(r)) / len(rows)
-
-
-def is_success(rec: dict[str, Any]) -> bool:
-    """Goal reached without collision and without falling."""
-    return bool(rec.get("goal_reached")) and not rec.get("collision") and not rec.get("fallen")
-
-
-def attach_overhead(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Add ``free_goal_time``, ``overhead_s`` and ``overhead_pct`` to every row (in place).
-
-    The reference of a row is the obstacle-free run (``variant == 'free'``) of the same
-    ``case``; the overhead is defined when both reached the goal.
-    """
-    free = {r.get("case"): r for r in records if r.get("variant") == "free"}
-    for r in records:
-        ref = free.get(r.get("case")) if r.get("variant") != "free" else None
-        t_free = ref.get("goal_time") if ref and ref.get("goal_reached") else None
-        r["free_goal_time"] = t_free
-        t = r.get("goal_time") if r.get("goal_reached") else None
-        if t is not None and t_free is not None:
-            r["overhead_s"] = float(t) - float(t_free)
-            r["overhead_pct"] = 100.0 * r["overhead_s"] / float(t_free) if t_free > 0 else None
-        else:
-            r["overhead_s"] = None
-            r["overhead_pct"] = None
-    return records
-
-
-def summarize_group(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
-    """The aggregate metrics of one group of rows (see the module docstring)."""
-    rows = [r for r in rows if r.get("variant", "obstacles") != "free"]
-    valid = [r for r in rows if r.get("outcome") not in RUN_FAILURES]
-    filtered = [r for r in valid if r.get("filter") == "on"]
-    out: dict[str, Any] = {
-        "runs": len(rows),
-        "run_failures": len(rows) - len(valid),
-        "valid": len(valid),
-        "collision_rate": _rate(valid, lambda r: bool(r.get("collision"))),
-        "fall_rate": _rate(valid, lambda r: bool(r.get("fallen"))),
-        "goal_rate": _rate(valid, lambda r: bool(r.get("goal_reached"))),
-        "success_rate": _rate(valid, is_success),
-        "infeasible_runs": sum(1 for r in valid if (r.get("relaxed_share") or 0) > 0),
-    }
-    clearance = _vals(valid, "min_clearance")
-    out["clearance_min"] = _stat(clearance, "min")
-    out["clearance_p10"] = _stat(clearance, "p10")
-    out["clearance_median"] = _stat(clearance, "median")
-    overhead = _vals(valid, "overhead_s")
-    out["overhead_mean_s"] = _stat(overhead, "mean")
-    out["overhead_max_s"] = _stat(overhead, "max")
-    out["overhead_mean_pct"] = _stat(_vals(valid, "overhead_pct"), "mean")
-    out["intervention_mean"] = _stat(_vals(filtered, "intervention_share"), "mean")
-    out["solve_median_ms"] = _stat(_vals(filtered, "solve_median_ms"), "median")
-    out["solve_p99_max_ms"] = _stat(_vals(filtered, "solve_p99_ms"), "max")
-    out["solve_max_ms"] = _stat(_vals(filtered, "solve_max_ms"), "max")
-    return out
-
-
-def aggregate(
-    records: Sequence[dict[str, Any]], by: Sequence[str] = ("robot", "filter")
-) -> list[dict[str, Any]]:
-    """One aggregate row per distinct value of the ``by`` keys (obstacle runs only), sorted."""
-    groups: dict[tuple, list[dict[str, Any]]] = {}
-    for r in records:
-        if r.get("variant", "obstacles") == "free":
-            continue
-        groups.setdefault(tuple(str(r.get(k, "")) for k in by), []).append(r)
-    rows = []
-    for key in sorted(groups, key=lambda k: tuple((x == "off", x) for x in k)):
-        rows.append(dict(zip(by, key, strict=True)) | summarize_group(groups[key]))
-    return rows
-
 
 # ------------------------------------------------------------------------------ writing
 
@@ -335,118 +210,3 @@ def write_results(
     paths["markdown"].write_text(results_markdown(records, title, notes, written),
                                  encoding="utf-8")
     return paths
-
-
-# ------------------------------------------------------------------------------ figures
-
-
-def _figure(size: tuple[float, float] = (9, 4.5)):  # noqa: ANN202
-    fig, axes = figure(size)  # the run report's Agg figure, one axes
-    return fig, axes[0, 0]
-
-
-def _group_labels(records, keys=("robot", "kind")) -> list[tuple]:  # noqa: ANN001
-    return sorted({tuple(str(r.get(k, "")) for k in keys) for r in records
-                   if r.get("variant", "obstacles") != "free"})
-
-
-def _strip(ax, groups: list[tuple[str, np.ndarray]], color: str, offset: float) -> None:  # noqa: ANN001
-    for i, (_, vals) in enumerate(groups):
-        if vals.size:
-            jitter = np.linspace(-0.08, 0.08, vals.size) if vals.size > 1 else np.zeros(1)
-            ax.plot(i + offset + jitter, vals, "o", color=color, alpha=0.7, ms=5)
-            ax.plot([i + offset - 0.15, i + offset + 0.15], [np.median(vals)] * 2, "-",
-                    color=color, lw=2)
-
-
-def write_figures(records: Sequence[dict[str, Any]], folder: Path) -> list[str]:
-    """Draw the evaluation figures into ``folder``; return their paths relative to its parent."""
-    folder.mkdir(parents=True, exist_ok=True)
-    rel = folder.name
-    groups = _group_labels(records)
-    names = [f"{robot}\n{kind}" for robot, kind in groups]
-    obstacle_runs = [r for r in records if r.get("variant", "obstacles") != "free"
-                     and r.get("outcome") not in RUN_FAILURES]
-
-    def pick(robot: str, kind: str, filt: str) -> list[dict[str, Any]]:
-        return [r for r in obstacle_runs if str(r.get("robot")) == robot
-                and str(r.get("kind")) == kind and r.get("filter") == filt]
-
-    written = []
-    # outcomes: collision rate (filter on / off) and success rate (filter on) per group
-    fig, ax = _figure((max(6, 1.6 * len(groups) + 3), 4.5))
-    x = np.arange(len(groups))
-    bars = (("on", "collision_rate", "tab:red", "collision, filter on"),
-            ("off", "collision_rate", "salmon", "collision, filter off"),
-            ("on", "success_rate", "tab:green", "success, filter on"))
-    for k, (filt, key, color, label) in enumerate(bars):
-        vals = [summarize_group(pick(rb, kd, filt)).get(key) for rb, kd in groups]
-        heights = [np.nan if v is None else 100 * v for v in vals]
-        bars_k = ax.bar(x + (k - 1) * 0.27, heights, 0.25, color=color, label=label)
-        ax.bar_label(bars_k, labels=["" if np.isnan(h) else f"{h:.0f}" for h in heights],
-                     fontsize=7)
-    ax.set_xticks(x, names, fontsize=8)
-    ax.set_ylabel("% of runs")
-    ax.set_ylim(0, 110)
-    ax.set_title("Collisions and successes per scenario kind")
-    ax.legend(fontsize=8, loc="upper right")
-    ax.grid(True, axis="y", alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(folder / FIGURES["outcomes"])
-    written.append(f"{rel}/{FIGURES['outcomes']}")
-    # min clearance distribution, filter on vs off
-    fig, ax = _figure((max(6, 1.6 * len(groups) + 3), 4.5))
-    for filt, color, off in (("on", "tab:blue", -0.18), ("off", "tab:gray", 0.18)):
-        _strip(ax, [(n, _vals(pick(rb, kd, filt), "min_clearance"))
-                    for n, (rb, kd) in zip(names, groups, strict=True)], color, off)
-        ax.plot([], [], "o", color=color, label=f"filter {filt}")
-    ax.axhline(0.0, color="black", lw=1)
-    ax.set_xticks(x, names, fontsize=8)
-    ax.set_ylabel("min robot-obstacle distance (m)")
-    ax.set_title("Minimum clearance per run (ground truth; 0 = contact)")
-    ax.legend(fontsize=8)
-    ax.grid(True, axis="y", alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(folder / FIGURES["clearance"])
-    written.append(f"{rel}/{FIGURES['clearance']}")
-    # time-to-goal overhead
-    fig, ax = _figure((max(6, 1.6 * len(groups) + 3), 4.5))
-    _strip(ax, [(n, _vals(pick(rb, kd, "on"), "overhead_s"))
-                for n, (rb, kd) in zip(names, groups, strict=True)], "tab:purple", 0.0)
-    ax.axhline(0.0, color="black", lw=1)
-    ax.set_xticks(x, names, fontsize=8)
-    ax.set_ylabel("time to goal - obstacle-free time to goal (s)")
-    ax.set_title("Time-to-goal overhead with the filter")
-    ax.grid(True, axis="y", alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(folder / FIGURES["overhead"])
-    written.append(f"{rel}/{FIGURES['overhead']}")
-    # intervention share
-    fig, ax = _figure((max(6, 1.6 * len(groups) + 3), 4.5))
-    _strip(ax, [(n, 100 * _vals(pick(rb, kd, "on"), "intervention_share"))
-                for n, (rb, kd) in zip(names, groups, strict=True)], "tab:orange", 0.0)
-    ax.set_xticks(x, names, fontsize=8)
-    ax.set_ylabel("% of the run")
-    ax.set_ylim(bottom=0)
-    ax.set_title("Share of time the filter changed the command")
-    ax.grid(True, axis="y", alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(folder / FIGURES["intervention"])
-    written.append(f"{rel}/{FIGURES['intervention']}")
-    # solve times
-    fig, ax = _figure((max(6, 1.6 * len(groups) + 3), 4.5))
-    for key, color, off, label in (("solve_median_ms", "tab:blue", -0.18, "per-run median"),
-                                   ("solve_p99_ms", "tab:red", 0.18, "per-run p99")):
-        _strip(ax, [(n, _vals(pick(rb, kd, "on"), key))
-                    for n, (rb, kd) in zip(names, groups, strict=True)], color, off)
-        ax.plot([], [], "o", color=color, label=label)
-    ax.set_xticks(x, names, fontsize=8)
-    ax.set_ylabel("filter solve time (ms)")
-    ax.set_yscale("symlog", linthresh=0.1)
-    ax.set_title("Safety filter solve time")
-    ax.legend(fontsize=8)
-    ax.grid(True, axis="y", alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(folder / FIGURES["solve_time"])
-    written.append(f"{rel}/{FIGURES['solve_time']}")
-    return written

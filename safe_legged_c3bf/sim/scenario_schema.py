@@ -1,468 +1,48 @@
-"""The scenario file's structure as pydantic models, and readable messages for its errors.
+"""The scenario file's structure as a pydantic model, and its validation.
 
 :mod:`safe_legged_c3bf.sim.scenario` validates a loaded YAML mapping with
 :func:`validate_document` and builds its frozen dataclasses from the result. Every mapping
 forbids unknown keys, including the parameter override sections (``filter``, ``tracker``,
 ``controller``, ``planner``), whose keys are the parameters the receiving node really declares
-(:mod:`safe_legged_c3bf.node_parameters`). Pydantic collects every error of the document;
-:func:`format_errors` turns them into lines like::
-
-    obstacles[1].semi_axes: must be two positive numbers
-    obstacles[0].colour: unknown field (did you mean 'color'?)
-    filter.gama: unknown key 'gama' under filter (did you mean 'gamma'?)
-
-with the unknown keys first: a misspelt required field is reported by its misspelt name, and
-the "is required" error of the field it was meant to be is dropped.
+(:mod:`safe_legged_c3bf.node_parameters`). Parts: the leaf-value validators are in
+:mod:`.scenario_fields`, the section models in :mod:`.scenario_sections`, the error lines
+(unknown keys first, with "did you mean") in :mod:`.scenario_errors`.
 """
 
 from __future__ import annotations
 
-import difflib
-import math
-from collections.abc import Mapping
 from functools import cache
-from typing import Annotated, Any, ClassVar, get_args
+from typing import Annotated, Any
 
-from pydantic import (
-    BaseModel,
-    ConfigDict,
-    Field,
-    PlainValidator,
-    PrivateAttr,
-    ValidationError,
-    create_model,
-    model_validator,
+from pydantic import Field, PlainValidator, ValidationError, create_model
+
+from safe_legged_c3bf.sim.scenario_errors import MAX_LINES, format_errors
+from safe_legged_c3bf.sim.scenario_fields import (
+    PosNum,
+    non_empty_string,
+    non_negative_integer,
+    string,
 )
-from pydantic_core import PydanticCustomError
-
-from safe_legged_c3bf.node_parameters import (
-    OVERRIDE_NODES,
-    override_fixed_parameters,
-    override_parameter_defaults,
-    override_refuses_integers,
-)
-from safe_legged_c3bf.sim.robots import ROBOTS
-
-PLANES = ("vertical", "horizontal")
-MOTION_TYPES = ("static", "constant_velocity", "waypoints")
-WAYPOINT_MODES = ("pingpong", "cycle", "stop")
-PLANNER_MODES = ("goal", "constant_velocity")
-#: Keys of the planner section that are the scenario's own, not planner node parameters.
-PLANNER_FIELDS = ("mode", "speed", "velocity")
-#: Most error lines in one message.
-MAX_LINES = 10
-
-_INVALID, _UNKNOWN, _MISSING = "scenario_invalid", "scenario_unknown", "scenario_missing"
-
-
-def _fail(message: str, suffix: str = "") -> None:
-    """Raise a validation error; ``suffix`` extends the field path ('.speed', '[0]')."""
-    raise PydanticCustomError(_INVALID, "{message}", {"message": message, "suffix": suffix})
-
-
-# --------------------------------------------------------------------------- leaf values
-
-
-def as_number(value: Any, allow_inf: bool = False) -> float | None:
-    """``value`` as a float, or None if it is not a finite number (bools are not numbers)."""
-    if isinstance(value, bool):
-        return None
-    if isinstance(value, str) and allow_inf and value.strip().lower() in ("inf", ".inf"):
-        return math.inf
-    if not isinstance(value, int | float):
-        return None
-    x = float(value)
-    if math.isnan(x) or (math.isinf(x) and not allow_inf):
-        return None
-    return x
-
-
-def as_vector(value: Any, sizes: tuple[int, ...]) -> tuple[float, ...] | None:
-    """``value`` as a tuple of finite floats of one of ``sizes`` lengths, or None."""
-    if not isinstance(value, list | tuple) or len(value) not in sizes:
-        return None
-    out = [as_number(v) for v in value]
-    return None if any(x is None for x in out) else tuple(out)  # type: ignore[arg-type]
-
-
-def number(*, positive=False, minimum=None, maximum=None, allow_inf=False) -> PlainValidator:
-    """A number (never a bool or a string), optionally > 0 or within [minimum, maximum]."""
-
-    def check(value: Any) -> float:
-        x = as_number(value, allow_inf)
-        if x is None:
-            _fail(f"must be a number, got {value!r}")
-        if positive and not x > 0:
-            _fail(f"must be a positive number, got {value!r}")
-        if minimum is not None and x < minimum:
-            _fail(f"must be >= {minimum}, got {value!r}")
-        if maximum is not None and x > maximum:
-            _fail(f"must be <= {maximum}, got {value!r}")
-        return x
-
-    return PlainValidator(check)
-
-
-def _integer(value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, int):
-        _fail(f"must be an integer, got {value!r}")
-    if value < 0:
-        _fail(f"must be >= 0, got {value!r}")
-    return int(value)
-
-
-def choice(options: tuple[str, ...]) -> PlainValidator:
-    """One of ``options`` (strings)."""
-
-    def check(value: Any) -> str:
-        if not isinstance(value, str) or value not in options:
-            _fail(f"must be one of {', '.join(options)}; got {value!r}")
-        return value
-
-    return PlainValidator(check)
-
-
-def _name(value: Any) -> str:
-    if not isinstance(value, str) or not value.strip():
-        _fail(f"must be a non-empty string, got {value!r}")
-    return value
-
-
-def _text(value: Any) -> str:
-    if not isinstance(value, str):
-        _fail(f"must be a string, got {value!r}")
-    return value
-
-
-def _obstacle_id(value: Any) -> str:
-    if not isinstance(value, str | int) or isinstance(value, bool):
-        _fail(f"must be a string, got {value!r}")
-    return str(value)
-
-
-def vector(sizes: tuple[int, ...], *, positive=False, non_negative=False, what=None):
-    """A list of ``sizes`` numbers (any of those lengths), optionally > 0 or >= 0."""
-
-    def check(value: Any) -> tuple[float, ...]:
-        vec = as_vector(value, sizes)
-        ok = vec is not None
-        if ok and positive:
-            ok = all(v > 0 for v in vec)
-        if ok and non_negative:
-            ok = all(v >= 0 for v in vec)
-        if not ok:
-            if what is None:
-                count = " or ".join(str(s) for s in sizes)
-                kind = ("positive numbers" if positive else
-                        "non-negative numbers" if non_negative else "numbers")
-                _fail(f"must be a list of {count} {kind}, got {value!r}")
-            _fail(what)
-        return vec
-
-    return PlainValidator(check)
-
-
-def scalar_or_xyz(non_negative: bool = False) -> PlainValidator:
-    """One number for x, y and z, or a list of 3."""
-
-    def check(value: Any) -> tuple[float, float, float]:
-        vec = as_vector(value, (3,)) if isinstance(value, list | tuple) else None
-        if vec is None:
-            x = None if isinstance(value, list | tuple) else as_number(value)
-            if x is None:
-                _fail(f"must be a number or a list of 3 numbers (x, y, z), got {value!r}")
-            vec = (x, x, x)
-        if non_negative and any(v < 0 for v in vec):
-            _fail(f"must be non-negative, got {value!r}")
-        return vec  # type: ignore[return-value]
-
-    return PlainValidator(check)
-
-
-def _waypoint_list(value: Any) -> list[tuple[float, ...]]:
-    if not isinstance(value, list) or not value:
-        _fail("must be a non-empty list of [x, y] or [x, y, z] points")
-    points = []
-    for i, p in enumerate(value):
-        vec = as_vector(p, (2, 3))
-        if vec is None:
-            _fail(f"must be [x, y] or [x, y, z] numbers, got {p!r}", f"[{i}]")
-        points.append(vec)
-    return points
-
-
-def _is_float(value: Any) -> bool:
-    return isinstance(value, float) and not math.isnan(value)
-
-
-def _is_number(value: Any) -> bool:
-    return _is_float(value) or (isinstance(value, int) and not isinstance(value, bool))
-
-
-def override_value(name: str, default: Any, node: str, strict_double: bool) -> PlainValidator:
-    """A parameter override of the type of the node's default for it.
-
-    ``strict_double``: the node's parameter class refuses an integer for a float (the node
-    would fail to start).
-    """
-
-    def check(value: Any) -> Any:
-        if isinstance(default, bool):
-            if not isinstance(value, bool):
-                _fail(f"must be true or false, got {value!r}")
-        elif isinstance(default, int):
-            if isinstance(value, bool) or not isinstance(value, int):
-                _fail(f"must be an integer, got {value!r}")
-        elif isinstance(default, float):
-            if not _is_number(value):
-                _fail(f"must be a number, got {value!r}")
-            if strict_double and not _is_float(value):
-                _fail(f"must be a floating-point number, got {value!r} (write {value}.0: the "
-                      f"{node} node declares {name} as a double and refuses an integer)")
-        elif isinstance(default, str):
-            if not isinstance(value, str):
-                _fail(f"must be a string, got {value!r}")
-        elif isinstance(default, list | tuple):
-            ok = _is_float if strict_double else _is_number
-            if not isinstance(value, list) or not value or not all(ok(v) for v in value):
-                kind = "floating-point numbers (1.0, not 1)" if strict_double else "numbers"
-                _fail(f"must be a list of {kind}, got {value!r}")
-        return value
-
-    return PlainValidator(check)
-
-
-Num = Annotated[float, number()]
-PosNum = Annotated[float, number(positive=True)]
-NonNeg = Annotated[float, number(minimum=0.0)]
-
-
-# --------------------------------------------------------------------------- models
-
-
-class Section(BaseModel):
-    """A mapping of the scenario: unknown keys are errors; a null value means "default"."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    _keys_in_order: tuple[str, ...] = PrivateAttr(default=())
-
-    @model_validator(mode="wrap")
-    @classmethod
-    def _drop_nulls(cls, data: Any, handler: Any) -> Any:
-        if isinstance(data, Mapping):
-            data = {k: v for k, v in data.items() if v is not None}
-        model = handler(data)
-        if isinstance(data, Mapping):
-            model._keys_in_order = tuple(str(k) for k in data)
-        return model
-
-    def given(self) -> dict[str, Any]:
-        """The keys given in the file (by their YAML names, in its order) and their values."""
-        values = {}
-        for name in self.model_fields_set:
-            info = type(self).model_fields[name]
-            values[info.alias or name] = getattr(self, name)
-        order = {key: i for i, key in enumerate(self._keys_in_order)}
-        return dict(sorted(values.items(), key=lambda item: order.get(item[0], len(order))))
-
-
-def _unknown(key: str, allowed: tuple[str, ...]) -> None:
-    raise PydanticCustomError(_UNKNOWN, "unknown field", {"key": key, "allowed": allowed})
-
-
-def _missing(key: str, note: str = "") -> None:
-    raise PydanticCustomError(_MISSING, "is required", {"key": key, "note": note})
-
-
-class RobotSection(Section):
-    """``robot:``."""
-
-    kind: Annotated[str, choice(tuple(sorted(ROBOTS)))] = "quadruped"
-    position: Annotated[tuple[float, float], vector((2,))] = (0.0, 0.0)
-    yaw: Num = 0.0
-
-
-class GoalSection(Section):
-    """``goal:``; the position defaults to the robot's start."""
-
-    position: Annotated[tuple[float, float], vector((2,))] | None = None
-    tolerance: PosNum = 0.3
-
-
-class PerceptionSection(Section):
-    """``perception:``."""
-
-    rate: PosNum = 20.0
-    position_noise_std: Annotated[tuple, scalar_or_xyz(non_negative=True)] = (0.02, 0.02, 0.02)
-    position_noise_bias: Annotated[tuple, scalar_or_xyz()] = (0.0, 0.0, 0.0)
-    size_noise_std: NonNeg = 0.0
-    dropout_probability: Annotated[float, number(minimum=0.0, maximum=1.0)] = 0.0
-    max_range: Annotated[float, number(positive=True, allow_inf=True)] = math.inf
-
-
-_MOTION_KEYS = {
-    "static": ("type", "start_time"),
-    "constant_velocity": ("type", "start_time", "velocity"),
-    "waypoints": ("type", "start_time", "waypoints", "speed", "mode"),
-}
-
-
-class MotionSection(Section):
-    """``obstacles[i].motion:``; which keys apply depends on ``type``."""
-
-    type: Annotated[str, choice(MOTION_TYPES)] = "static"
-    start_time: NonNeg = 0.0
-    velocity: Annotated[tuple, vector((2, 3))] | None = None
-    waypoints: Annotated[list, PlainValidator(_waypoint_list)] | None = None
-    speed: PosNum | None = None
-    mode: Annotated[str, choice(WAYPOINT_MODES)] = "pingpong"
-
-    @model_validator(mode="after")
-    def _fields_of_type(self) -> MotionSection:
-        allowed = _MOTION_KEYS[self.type]
-        for key in sorted(self.model_fields_set - set(allowed)):
-            _unknown(key, allowed)
-        if self.type == "constant_velocity" and self.velocity is None:
-            _missing("velocity")
-        if self.type == "waypoints":
-            if self.waypoints is None:
-                _missing("waypoints")
-            if self.speed is None:
-                _missing("speed")
-        return self
-
-
-class ObstacleSection(Section):
-    """``obstacles[i]:`` (the position's meaning depends on ``plane``)."""
-
-    id: Annotated[str, PlainValidator(_obstacle_id)] | None = None
-    plane: Annotated[str, choice(PLANES)] = "vertical"
-    position: Annotated[tuple, vector((2, 3))]
-    semi_axes: Annotated[
-        tuple[float, float], vector((2,), positive=True, what="must be two positive numbers")
-    ]
-    orientation: Num = 0.0
-    extent: PosNum | None = None
-    color: Annotated[tuple, vector((3, 4), non_negative=True)] = (0.8, 0.3, 0.2, 1.0)
-    motion: MotionSection = Field(default_factory=MotionSection)
-
-    @model_validator(mode="after")
-    def _position_and_path(self) -> ObstacleSection:
-        if self.plane == "horizontal":
-            if len(self.position) != 3:
-                _fail("must be [x, y, z] (x, middle of the bar along y, height of the bar "
-                      f"axis), got {list(self.position)!r}", ".position")
-            if self.position[2] <= 0:
-                _fail("the bar's height z must be positive", ".position")
-        start = self.start_position()
-        previous = start
-        for i, point in enumerate(self.waypoints()):
-            if math.dist(point, previous) < 1e-6:
-                _fail("must differ from the previous point (the obstacle's position for the "
-                      "first waypoint)", f".motion.waypoints[{i}]")
-            previous = point
-        if self.motion.mode == "cycle" and self.waypoints() and math.dist(
-            self.waypoints()[-1], start
-        ) < 1e-6:
-            _fail("in cycle mode the last waypoint must not repeat the start position",
-                  ".motion.waypoints")
-        return self
-
-    def extent_or_default(self) -> float:
-        """Extent (m): given, or 1.5 for a vertical obstacle, 4.0 for a bar."""
-        if self.extent is not None:
-            return self.extent
-        return 1.5 if self.plane == "vertical" else 4.0
-
-    def start_position(self) -> tuple[float, float, float]:
-        """(x, y, z) at t = 0: a vertical obstacle given as [x, y] stands on the ground."""
-        p = self.position
-        return (p[0], p[1], p[2] if len(p) == 3 else self.extent_or_default() / 2.0)
-
-    def waypoints(self) -> tuple[tuple[float, float, float], ...]:
-        """The waypoints with z filled in (an [x, y] point keeps the start height)."""
-        if self.motion.type != "waypoints" or not self.motion.waypoints:
-            return ()
-        z = self.start_position()[2]
-        return tuple((p[0], p[1], p[2] if len(p) == 3 else z) for p in self.motion.waypoints)
-
-
-class GroundTruthSection(Section):
-    """``ground_truth:``; the fall bounds default per robot kind (scenario.FALL_DEFAULTS)."""
-
-    fall_min_height: NonNeg | None = None
-    fall_max_tilt: Annotated[float, number(positive=True, maximum=math.pi)] | None = None
-    collision_debounce: NonNeg = 0.1
-    contact_tolerance: NonNeg = 0.001
-    distance_cutoff: PosNum = 1.0
-    exact_distance_below: NonNeg = 0.3
-    max_closing_speed: PosNum = 4.0
-    max_check_interval: PosNum = 0.02
-
-
-class PhysicsSection(Section):
-    """``physics:``."""
-
-    lateral_friction: PosNum = 1.0
-    gravity: PosNum = 9.81
-
-
-class OverrideSection(Section):
-    """Parameter overrides of one node: the keys are that node's parameter names."""
-
-    #: Scenario section name ('filter', ...) and the node it configures.
-    section: ClassVar[str] = ""
-    node: ClassVar[str] = ""
-
-
-_PLANNER_VELOCITY = vector(
-    (1, 2, 3, 4), what="must be a list of 1 to 4 numbers: vx, vy, vz, yaw_rate (m/s, rad/s)"
+from safe_legged_c3bf.sim.scenario_sections import (
+    MOTION_TYPES,
+    PLANES,
+    PLANNER_FIELDS,
+    PLANNER_MODES,
+    WAYPOINT_MODES,
+    GoalSection,
+    GroundTruthSection,
+    ObstacleSection,
+    PerceptionSection,
+    PhysicsSection,
+    RobotSection,
+    Section,
+    override_model,
 )
 
-
-def _check_planner(self: BaseModel) -> BaseModel:
-    if self.mode == "constant_velocity" and self.velocity is None:  # type: ignore[attr-defined]
-        _missing("velocity", "in constant_velocity mode ([vx, vy, vz, yaw_rate])")
-    return self
-
-
-def _override_model(section: str) -> type[OverrideSection]:
-    """A model whose fields are the parameters of the node a section configures."""
-    node = OVERRIDE_NODES[section]
-    strict = override_refuses_integers(section)
-    # The planner applies its section after it started: its parameters fixed at start-up
-    # (the scenario itself, which the bringup sets, and diagnostics_period) are not there.
-    left_out = (*PLANNER_FIELDS, *override_fixed_parameters(section)) if section == "planner" \
-        else ()
-    defaults = {
-        name: default for name, default in override_parameter_defaults(section).items()
-        if name not in left_out
-    }
-    # Fields get neutral names and the parameter name as alias: a parameter may be called
-    # like a BaseModel attribute.
-    fields: dict[str, Any] = {
-        f"p_{i}": (
-            Annotated[Any, override_value(name, default, node, strict)] | None,
-            Field(default=None, alias=name),
-        )
-        for i, (name, default) in enumerate(defaults.items())
-    }
-    validators = {}
-    if section == "planner":
-        fields.update(
-            mode=(Annotated[str, choice(PLANNER_MODES)], "goal"),
-            speed=(PosNum | None, None),
-            velocity=(Annotated[tuple, _PLANNER_VELOCITY] | None, None),
-        )
-        validators["_constant_velocity"] = model_validator(mode="after")(_check_planner)
-    model = create_model(
-        f"{section.capitalize()}Overrides", __base__=OverrideSection,
-        __validators__=validators, **fields,
-    )
-    model.section = section
-    model.node = node
-    return model
+__all__ = [  # re-exported from scenario_sections and scenario_errors
+    "MAX_LINES", "MOTION_TYPES", "PLANES", "PLANNER_FIELDS", "PLANNER_MODES", "WAYPOINT_MODES",
+    "format_errors", "scenario_model", "validate_document",
+]
 
 
 @cache
@@ -471,118 +51,21 @@ def scenario_model() -> type[Section]:
     return create_model(
         "ScenarioDocument",
         __base__=Section,
-        name=(Annotated[str, PlainValidator(_name)] | None, None),
-        description=(Annotated[str, PlainValidator(_text)], ""),
+        name=(Annotated[str, PlainValidator(non_empty_string)] | None, None),
+        description=(Annotated[str, PlainValidator(string)], ""),
         robot=(RobotSection, Field(default_factory=RobotSection)),
         goal=(GoalSection, Field(default_factory=GoalSection)),
         duration=(PosNum, 30.0),
-        seed=(Annotated[int, PlainValidator(_integer)], 0),
+        seed=(Annotated[int, PlainValidator(non_negative_integer)], 0),
         perception=(PerceptionSection, Field(default_factory=PerceptionSection)),
         obstacles=(list[ObstacleSection], Field(default_factory=list)),
-        planner=(_override_model("planner"), Field(default_factory=_override_model("planner"))),
+        planner=(override_model("planner"), Field(default_factory=override_model("planner"))),
         ground_truth=(GroundTruthSection, Field(default_factory=GroundTruthSection)),
         physics=(PhysicsSection, Field(default_factory=PhysicsSection)),
-        filter=(_override_model("filter") | None, None),
-        tracker=(_override_model("tracker") | None, None),
-        controller=(_override_model("controller") | None, None),
+        filter=(override_model("filter") | None, None),
+        tracker=(override_model("tracker") | None, None),
+        controller=(override_model("controller") | None, None),
     )
-
-
-# --------------------------------------------------------------------------- errors
-
-
-def _path(loc: tuple[Any, ...], suffix: str = "") -> str:
-    text = ""
-    for part in loc:
-        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
-    text += suffix
-    return text.lstrip(".") or "scenario"
-
-
-def _model_in(annotation: Any) -> type[BaseModel] | None:
-    """The pydantic model inside an annotation (X, X | None, list[X], Annotated[X, ...])."""
-    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
-        return annotation
-    for arg in get_args(annotation):
-        found = _model_in(arg)
-        if found is not None:
-            return found
-    return None
-
-
-def _model_at(root: type[BaseModel], loc: tuple[Any, ...]) -> type[BaseModel] | None:
-    """The model that validated the mapping at ``loc`` (None if not a model)."""
-    model: type[BaseModel] | None = root
-    for part in loc:
-        if isinstance(part, int) or model is None:
-            continue
-        info = next((f for n, f in model.model_fields.items() if (f.alias or n) == part), None)
-        model = _model_in(info.annotation) if info is not None else None
-    return model
-
-
-def _keys(model: type[BaseModel] | None) -> tuple[str, ...]:
-    if model is None:
-        return ()
-    return tuple(f.alias or n for n, f in model.model_fields.items())
-
-
-def _suggest(key: str, allowed: tuple[str, ...]) -> str | None:
-    close = difflib.get_close_matches(str(key), allowed, n=1, cutoff=0.6)
-    return close[0] if close else None
-
-
-def _unknown_message(parent: tuple[Any, ...], key: Any, model, allowed) -> tuple[str, str | None]:
-    allowed = tuple(allowed)
-    guess = _suggest(str(key), allowed)
-    hint = f"did you mean {guess!r}?" if guess else "expected one of: " + ", ".join(sorted(allowed))
-    if isinstance(model, type) and issubclass(model, OverrideSection):
-        where = _path(parent)
-        text = f"unknown key {str(key)!r} under {where} ({hint})"
-        if not guess:
-            text = (f"unknown key {str(key)!r} under {where}: not a parameter of the "
-                    f"{model.node} node ({hint})")
-        return text, guess
-    return f"unknown field ({hint})", guess
-
-
-def format_errors(error: ValidationError, root: type[BaseModel]) -> list[str]:
-    """One line per error, ``path: message``, unknown keys first (see the module docstring)."""
-    unknown: list[str] = []
-    others: list[tuple[tuple[Any, ...], str]] = []
-    meant: set[tuple[Any, ...]] = set()  # fields an unknown key probably stands for
-    for err in error.errors(include_url=False):
-        loc, kind, ctx = tuple(err["loc"]), err["type"], err.get("ctx") or {}
-        if kind == "extra_forbidden":
-            parent, key = loc[:-1], loc[-1]
-            model = _model_at(root, parent)
-            text, guess = _unknown_message(parent, key, model, _keys(model))
-            unknown.append(f"{_path(loc)}: {text}")
-            if guess:
-                meant.add((*parent, guess))
-        elif kind == _UNKNOWN:
-            model = _model_at(root, loc)
-            text, guess = _unknown_message(loc, ctx["key"], model, ctx["allowed"])
-            unknown.append(f"{_path((*loc, ctx['key']))}: {text}")
-            if guess:
-                meant.add((*loc, guess))
-        elif kind == _MISSING:
-            note = f" {ctx['note']}" if ctx.get("note") else ""
-            others.append(((*loc, ctx["key"]), f"{_path((*loc, ctx['key']))}: is required{note}"))
-        elif kind == "missing":
-            others.append((loc, f"{_path(loc)}: is required"))
-        elif kind == _INVALID:
-            others.append((loc, f"{_path(loc, ctx.get('suffix', ''))}: {ctx['message']}"))
-        elif kind in ("model_type", "model_attributes_type", "dict_type"):
-            others.append((loc, f"{_path(loc)}: must be a mapping, got {err['input']!r}"))
-        elif kind == "list_type":
-            others.append((loc, f"{_path(loc)}: must be a list, got {err['input']!r}"))
-        else:  # not expected: every leaf has its own validator
-            others.append((loc, f"{_path(loc)}: {err['msg']}"))
-    lines = unknown + [text for loc, text in others if loc not in meant]
-    if len(lines) > MAX_LINES:
-        lines = [*lines[:MAX_LINES], f"... and {len(lines) - MAX_LINES} more errors"]
-    return lines
 
 
 def validate_document(data: Any) -> tuple[Section | None, list[str]]:

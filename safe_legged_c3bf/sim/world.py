@@ -26,12 +26,9 @@ Typical use::
 from __future__ import annotations
 
 import array
-import json
-import math
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -42,11 +39,14 @@ from numpy.typing import ArrayLike
 from safe_legged_c3bf.base_state import BaseState
 from safe_legged_c3bf.joint_command import JointCommand
 from safe_legged_c3bf.sim.camera import CameraConfig, FollowCamera
+from safe_legged_c3bf.sim.goal_progress import GoalProgress
 from safe_legged_c3bf.sim.ground_truth import GroundTruthMonitor, GroundTruthSample
 from safe_legged_c3bf.sim.motor_driver import DriverMode, MotorDriver
+from safe_legged_c3bf.sim.obstacle_sync import ObstacleSync
 from safe_legged_c3bf.sim.obstacles import KinematicObstacle, ObstacleState
 from safe_legged_c3bf.sim.perception import PerceptionModel
 from safe_legged_c3bf.sim.robots import load_robot
+from safe_legged_c3bf.sim.run_summary import run_summary, write_json
 from safe_legged_c3bf.sim.scenario import Scenario, load_scenario
 
 
@@ -113,12 +113,6 @@ def _float_list(values: ArrayLike, n: int) -> list[float]:
     return out
 
 
-def _json_number(x: float | None) -> float | None:
-    if x is None or not math.isfinite(x):
-        return None
-    return float(x)
-
-
 class Simulation:
     """A deterministic PyBullet world built from a scenario (no ROS)."""
 
@@ -157,17 +151,18 @@ class Simulation:
         self.seed = self.scenario.seed if seed is None else int(seed)
         self.physics_dt = float(physics_dt)
         self._total_steps = int(round(self.scenario.duration / self.physics_dt))
-        self._sync_steps = int(obstacle_sync_steps)
         self.client = pybullet.connect(pybullet.GUI if gui else pybullet.DIRECT)
         if self.client < 0:
             raise RuntimeError("cannot connect to PyBullet" + (" GUI" if gui else ""))
         try:
-            self._build(command_timeout, damping_kd, mesh_segments)
+            self._build(command_timeout, damping_kd, obstacle_sync_steps, mesh_segments)
         except Exception:
             pybullet.disconnect(self.client)
             raise
 
-    def _build(self, command_timeout: float, damping_kd: float, mesh_segments: int) -> None:
+    def _build(
+        self, command_timeout: float, damping_kd: float, sync_steps: int, mesh_segments: int
+    ) -> None:
         sc, c = self.scenario, self.client
         pybullet.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=c)
         pybullet.setPhysicsEngineParameter(
@@ -185,9 +180,7 @@ class Simulation:
         self.driver = MotorDriver(c, self.robot, timeout=command_timeout, damping_kd=damping_kd)
         self._joint_indices = self.robot.joint_indices.tolist()  # a list is faster to parse
         self.obstacles = [KinematicObstacle(c, o, mesh_segments) for o in sc.obstacles]
-        self._moving = [i for i, o in enumerate(self.obstacles) if o.moving]
-        self._next_sync = {i: 0 for i in self._moving}
-        self._centers = [o.script.state(0.0)[0] for o in self.obstacles]
+        self._obstacle_sync = ObstacleSync(self.obstacles, sync_steps, self.physics_dt)
         self.monitor = GroundTruthMonitor(
             c, self.robot, self.obstacles, sc.ground_truth, self.physics_dt
         )
@@ -198,14 +191,12 @@ class Simulation:
         self.driver_timeouts = 0
         self.commands_received = 0
         self.malformed_commands = 0
-        self._goal = tuple(float(v) for v in sc.goal.position)
-        self._goal_reached_time: float | None = None
-        self._min_goal_distance = math.inf
+        self.goal_progress = GoalProgress(sc.goal.position, sc.goal.tolerance)
         self._camera: FollowCamera | None = None
         self._record_every = 0
         self._frames: list[np.ndarray] = []
         self._closed = False
-        self.monitor.update(0.0, self._centers)
+        self.monitor.update(0.0, self._obstacle_sync.centers)
         self._update_goal(0.0)
 
     # ------------------------------------------------------------------ properties
@@ -292,8 +283,7 @@ class Simulation:
     def step(self, n: int = 1) -> None:
         """Advance physics by ``n`` steps (continues past the duration if asked to)."""
         dt, client = self.physics_dt, self.client
-        driver, monitor, obstacles = self.driver, self.monitor, self.obstacles
-        moving, next_sync, centers = self._moving, self._next_sync, self._centers
+        driver, monitor, sync = self.driver, self.monitor, self._obstacle_sync
         for _ in range(int(n)):
             k = self._step
             t = k * dt
@@ -303,36 +293,20 @@ class Simulation:
                 if mode is DriverMode.DAMPING and self._driver_mode is DriverMode.ACTIVE:
                     self.driver_timeouts += 1
                 self._driver_mode = mode
-            for i in moving:
-                if k >= next_sync[i]:
-                    self._sync_obstacle(i, k, t)
+            sync.before_step(k, t)
             pybullet.stepSimulation(physicsClientId=client)
             k += 1
             self._step = k
             t = k * dt
-            for i in moving:
-                centers[i] = obstacles[i].body_position()
-            monitor.update(t, centers)
+            sync.after_step()
+            monitor.update(t, sync.centers)
             self._update_goal(t)
             if self._record_every and k % self._record_every == 0:
                 self._frames.append(self.render_frame())
 
-    def _sync_obstacle(self, i: int, k: int, t: float) -> None:
-        obstacle = self.obstacles[i]
-        obstacle.sync(t)
-        change = obstacle.script.next_change(t)
-        next_step = k + self._sync_steps
-        if math.isfinite(change):
-            next_step = min(next_step, max(k + 1, math.ceil(change / self.physics_dt - 1e-9)))
-        self._next_sync[i] = next_step
-
     def _update_goal(self, t: float) -> None:
         pos, _ = self._link_pose(self.monitor.last_base_position, self.monitor.last_base_quaternion)
-        distance = math.hypot(pos[0] - self._goal[0], pos[1] - self._goal[1])
-        self._min_goal_distance = min(self._min_goal_distance, distance)
-        if self._goal_reached_time is None and distance <= self.scenario.goal.tolerance:
-            self._goal_reached_time = t
-        self._goal_distance = distance
+        self.goal_progress.update(t, pos)
 
     # ------------------------------------------------------------------ state
 
@@ -428,65 +402,19 @@ class Simulation:
     # ------------------------------------------------------------------ summary
 
     def summary(self, extra: dict[str, Any] | None = None) -> dict[str, Any]:
-        """Run summary as a JSON-ready dict (infinite values become None).
+        """Run summary as a JSON-ready dict (:func:`~.run_summary.run_summary`).
 
         ``extra`` entries (e.g. the node's pacing statistics) are merged in at top level.
         """
-        sc, stats = self.scenario, self.monitor.stats
         pos, _ = self._link_pose(self.monitor.last_base_position, self.monitor.last_base_quaternion)
-        out: dict[str, Any] = {
-            "scenario": sc.name,
-            "source": sc.source,
-            "robot": sc.robot.model,
-            "seed": self.seed,
-            "duration": sc.duration,
-            "sim_time": self.time,
-            "physics_steps": self._step,
-            "physics_dt": self.physics_dt,
-            "finished": self.finished,
-            "collision_count": len(stats.collision_events),
-            "collisions": [
-                {"time": e.time, "obstacle_id": e.obstacle_id, "links": list(e.links)}
-                for e in stats.collision_events
-            ],
-            "time_in_collision": stats.time_in_collision,
-            "min_distance": _json_number(stats.min_distance),
-            "min_distance_time": stats.min_distance_time,
-            "min_distance_obstacle": stats.min_distance_obstacle,
-            "min_distance_exact": bool(stats.min_distance < sc.ground_truth.distance_cutoff),
-            "fell": stats.fell,
-            "fall_time": stats.fall_time,
-            "max_tilt": stats.max_tilt,
-            "min_base_height": _json_number(stats.min_base_height),
-            "goal": list(sc.goal.position),
-            "goal_reached": self._goal_reached_time is not None,
-            "goal_reached_time": self._goal_reached_time,
-            "final_goal_distance": self._goal_distance,
-            "min_goal_distance": self._min_goal_distance,
-            "final_base_position": [float(v) for v in pos],
-            "commands_received": self.commands_received,
-            "rejected_commands": self.rejected_commands,
-            "driver_timeouts": self.driver_timeouts,
-            "driver_mode": self._driver_mode.value,
-            "detection_frames": self.perception.frames,
-            "detections_dropped": self.perception.dropped,
-        }
-        if extra:
-            out.update(extra)
-        return out
+        return run_summary(self, pos, extra)
 
     def write_summary(
         self, path: str | os.PathLike[str], extra: dict[str, Any] | None = None
     ) -> dict[str, Any]:
         """Write :meth:`summary` as JSON to ``path`` (directories created) and return it."""
         data = self.summary(extra)
-        target = Path(path)
-        target.parent.mkdir(parents=True, exist_ok=True)
-        tmp = target.with_name(target.name + ".tmp")
-        with open(tmp, "w", encoding="utf-8") as f:
-            json.dump(data, f, indent=2, allow_nan=False)
-            f.write("\n")
-        os.replace(tmp, target)
+        write_json(path, data)
         return data
 
     # ------------------------------------------------------------------ lifetime

@@ -1,0 +1,143 @@
+"""Evaluation metrics: the time-to-goal overhead of each run and the aggregate of a group.
+
+Input: the result rows of :func:`safe_legged_c3bf.evaluation.runner.record_from_report`
+(plain dicts, one per bringup run). :func:`attach_overhead` pairs every run with the
+obstacle-free run of the same case (``variant == 'free'``) and adds the time-to-goal overhead;
+:func:`aggregate` groups rows (by robot and filter, or by robot, scenario kind and filter) and
+computes, per group (metric definitions: doc/evaluation.md):
+
+* ``runs``: rows with obstacles in the group; ``run_failures``: of those, runs without a
+  trustworthy result (start-up failure, node died, wall timeout, interrupted), which the
+  rates below exclude (``valid`` = runs - run_failures);
+* ``collision_rate``, ``fall_rate``, ``goal_rate`` and ``success_rate`` (goal reached, no
+  collision, no fall) over the valid runs;
+* ``infeasible_runs``: runs with some time in the filter status RELAXED;
+* min clearance (ground truth, m): min, 10th percentile, median over runs;
+* time-to-goal overhead against the obstacle-free run (s and %): mean and max over runs
+  that reached the goal in both;
+* filter intervention share (mean) and solve times (median of the per-run medians, max of
+  the per-run 99th percentiles, max).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import numpy as np
+
+from safe_legged_c3bf.evaluation.runner import RUN_FAILURES
+
+#: Columns of the aggregate tables (after the group keys).
+SUMMARY_COLUMNS = (
+    "runs", "run_failures", "valid", "collision_rate", "fall_rate", "goal_rate",
+    "success_rate", "infeasible_runs", "clearance_min", "clearance_p10", "clearance_median",
+    "overhead_mean_s", "overhead_max_s", "overhead_mean_pct", "intervention_mean",
+    "solve_median_ms", "solve_p99_max_ms", "solve_max_ms",
+)
+
+
+def finite_values(rows: Iterable[dict[str, Any]], key: str) -> np.ndarray:
+    """The finite numbers under ``key`` in ``rows`` (booleans as 0/1; others skipped)."""
+    out = []
+    for r in rows:
+        v = r.get(key)
+        if isinstance(v, bool):
+            v = float(v)
+        if isinstance(v, int | float) and math.isfinite(v):
+            out.append(float(v))
+    return np.array(out, dtype=float)
+
+
+def _stat(values: np.ndarray, fn: str) -> float | None:
+    if values.size == 0:
+        return None
+    if fn == "mean":
+        return float(values.mean())
+    if fn == "median":
+        return float(np.median(values))
+    if fn == "min":
+        return float(values.min())
+    if fn == "max":
+        return float(values.max())
+    if fn == "p10":
+        return float(np.percentile(values, 10))
+    raise ValueError(fn)
+
+
+def _rate(rows: Sequence[dict[str, Any]], predicate) -> float | None:  # noqa: ANN001
+    if not rows:
+        return None
+    return sum(1 for r in rows if predicate(r)) / len(rows)
+
+
+def is_success(rec: dict[str, Any]) -> bool:
+    """Goal reached without collision and without falling."""
+    return bool(rec.get("goal_reached")) and not rec.get("collision") and not rec.get("fallen")
+
+
+def attach_overhead(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Add ``free_goal_time``, ``overhead_s`` and ``overhead_pct`` to every row (in place).
+
+    The reference of a row is the obstacle-free run (``variant == 'free'``) of the same
+    ``case``; the overhead is defined when both reached the goal.
+    """
+    free = {r.get("case"): r for r in records if r.get("variant") == "free"}
+    for r in records:
+        ref = free.get(r.get("case")) if r.get("variant") != "free" else None
+        t_free = ref.get("goal_time") if ref and ref.get("goal_reached") else None
+        r["free_goal_time"] = t_free
+        t = r.get("goal_time") if r.get("goal_reached") else None
+        if t is not None and t_free is not None:
+            r["overhead_s"] = float(t) - float(t_free)
+            r["overhead_pct"] = 100.0 * r["overhead_s"] / float(t_free) if t_free > 0 else None
+        else:
+            r["overhead_s"] = None
+            r["overhead_pct"] = None
+    return records
+
+
+def summarize_group(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """The aggregate metrics of one group of rows (see the module docstring)."""
+    rows = [r for r in rows if r.get("variant", "obstacles") != "free"]
+    valid = [r for r in rows if r.get("outcome") not in RUN_FAILURES]
+    filtered = [r for r in valid if r.get("filter") == "on"]
+    out: dict[str, Any] = {
+        "runs": len(rows),
+        "run_failures": len(rows) - len(valid),
+        "valid": len(valid),
+        "collision_rate": _rate(valid, lambda r: bool(r.get("collision"))),
+        "fall_rate": _rate(valid, lambda r: bool(r.get("fallen"))),
+        "goal_rate": _rate(valid, lambda r: bool(r.get("goal_reached"))),
+        "success_rate": _rate(valid, is_success),
+        "infeasible_runs": sum(1 for r in valid if (r.get("relaxed_share") or 0) > 0),
+    }
+    clearance = finite_values(valid, "min_clearance")
+    out["clearance_min"] = _stat(clearance, "min")
+    out["clearance_p10"] = _stat(clearance, "p10")
+    out["clearance_median"] = _stat(clearance, "median")
+    overhead = finite_values(valid, "overhead_s")
+    out["overhead_mean_s"] = _stat(overhead, "mean")
+    out["overhead_max_s"] = _stat(overhead, "max")
+    out["overhead_mean_pct"] = _stat(finite_values(valid, "overhead_pct"), "mean")
+    out["intervention_mean"] = _stat(finite_values(filtered, "intervention_share"), "mean")
+    out["solve_median_ms"] = _stat(finite_values(filtered, "solve_median_ms"), "median")
+    out["solve_p99_max_ms"] = _stat(finite_values(filtered, "solve_p99_ms"), "max")
+    out["solve_max_ms"] = _stat(finite_values(filtered, "solve_max_ms"), "max")
+    return out
+
+
+def aggregate(
+    records: Sequence[dict[str, Any]], by: Sequence[str] = ("robot", "filter")
+) -> list[dict[str, Any]]:
+    """One aggregate row per distinct value of the ``by`` keys (obstacle runs only), sorted."""
+    groups: dict[tuple, list[dict[str, Any]]] = {}
+    for r in records:
+        if r.get("variant", "obstacles") == "free":
+            continue
+        groups.setdefault(tuple(str(r.get(k, "")) for k in by), []).append(r)
+    rows = []
+    for key in sorted(groups, key=lambda k: tuple((x == "off", x) for x in k)):
+        rows.append(dict(zip(by, key, strict=True)) | summarize_group(groups[key]))
+    return rows

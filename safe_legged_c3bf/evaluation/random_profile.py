@@ -1,0 +1,144 @@
+"""The ranges the random-scenario generator draws from, per robot kind.
+
+:class:`RandomProfile` holds them (SI units: m, s, rad, m/s; positions in odom, the robot
+starting at the origin); :data:`PROFILES` are the defaults of the A1 quadruped and the biped,
+and :func:`profile_for` returns one with some fields changed. Used by
+:mod:`safe_legged_c3bf.evaluation.random_scenario` (drawing) and
+:mod:`safe_legged_c3bf.evaluation.random_checks` (re-checking).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+ROBOTS = ("quadruped", "biped")
+MOVING_KINDS = ("crossing", "head_on", "oblique")
+#: Filter overrides of biped scenarios (as in config/scenarios/biped_static.yaml): the biped's
+#: command range (config/biped_controller.yaml) and body height instead of the A1's.
+BIPED_FILTER_OVERRIDES = {
+    "max_speed": 0.2, "max_reverse_speed": 0.1, "max_accel": 0.3, "max_yaw_rate": 0.4,
+    "max_yaw_accel": 0.8, "min_height": 0.7, "max_height": 0.9,
+}
+
+
+@dataclass(frozen=True)
+class RandomProfile:
+    """Ranges the generator draws from, per robot kind (SI units: m, s, rad, m/s).
+
+    Attributes:
+        robot: 'quadruped' or 'biped'.
+        cruise_speed: planner cruise speed (m/s).
+        nominal_speed: speed the robot actually walks at without obstacles (m/s), used to
+            time the moving obstacles (measured on obstacle-free runs).
+        start_delay: time before the robot starts to move (s).
+        goal_distance: (min, max) start-goal distance (m).
+        duration: run length (s, sim time).
+        obstacle_count: (min, max) number of obstacles (inclusive).
+        obstacle_radius: (min, max) larger semi-axis a (m).
+        aspect: (min, max) ratio b / a of the smaller semi-axis.
+        height: (min, max) height of vertical obstacles (m).
+        mover_speed: (min, max) speed of moving obstacles (m/s).
+        moving_probability: chance that an obstacle moves.
+        kind_weights: relative weights of the moving kinds (crossing, head_on, oblique).
+        bar_probability: chance that one station holds a bar instead (quadruped only).
+        half_width: half the robot's width across the path (m): a vertical obstacle is in
+            the way when the straight path passes closer than its smaller semi-axis plus this.
+        passage: least surface-to-surface gap (m) between a mover at rest (waiting or
+            stopped) and any other obstacle at rest: the filter's inflation diameter (0.98 m
+            for the A1, 1.02 m for the biped) plus 0.4 m, so no dead end forms.
+        in_way_fraction: the lateral offset of a conflict point is at most this share of
+            (smaller semi-axis + half_width).
+        start_clearance: least distance (m) between any obstacle surface and the start, over
+            the obstacle's whole motion.
+        goal_clearance: the same for the goal.
+        first_station: least distance (m) from the start to a conflict station.
+        last_station: least distance (m) from a conflict station to the goal.
+        spacing: least distance (m) between two conflict stations along the path.
+        pre_travel: (min, max) distance (m) a mover walks before the conflict point.
+        post_travel: (min, max) distance (m) it walks after it before stopping: far enough
+            for its inflated circle (semi-axis + ~0.5 m) to leave the path, or the stopped
+            mover blocks the way a second time. Neither travel is ever shortened (a mover
+            whose segment comes near the start or the goal is drawn again): see
+            :func:`meeting_walks`.
+        random_heading: draw the robot's heading (else yaw 0).
+        trunk_top: top of the robot's body when standing (m); a bar is in the way below it.
+        bar_underside: (min, max) height of a bar's underside (m).
+        bar_radius: (min, max) radius of a bar's cross-section (m).
+        perception: the scenario's perception section.
+        filter_overrides: the scenario's ``filter:`` section (the robot's command range and
+            height when the filter's defaults, the A1's, do not fit).
+
+    """
+
+    robot: str
+    cruise_speed: float
+    nominal_speed: float
+    start_delay: float
+    goal_distance: tuple[float, float]
+    duration: float
+    obstacle_count: tuple[int, int]
+    obstacle_radius: tuple[float, float]
+    aspect: tuple[float, float]
+    height: tuple[float, float]
+    mover_speed: tuple[float, float]
+    moving_probability: float
+    kind_weights: tuple[float, float, float]
+    bar_probability: float
+    half_width: float
+    in_way_fraction: float
+    passage: float
+    start_clearance: float
+    goal_clearance: float
+    first_station: float
+    last_station: float
+    spacing: float
+    pre_travel: tuple[float, float]
+    post_travel: tuple[float, float]
+    random_heading: bool = True
+    trunk_top: float = 0.337
+    bar_underside: tuple[float, float] = (0.295, 0.305)
+    bar_radius: tuple[float, float] = (0.04, 0.06)
+    perception: dict[str, Any] = field(default_factory=lambda: {
+        "rate": 20.0, "position_noise_std": 0.02, "size_noise_std": 0.005,
+        "dropout_probability": 0.05, "max_range": 6.0,
+    })
+    filter_overrides: dict[str, Any] = field(default_factory=dict)
+
+
+#: Default profiles. Timing measured on obstacle-free runs: the A1 at 0.4 m/s walks
+#: x(t) = 0.4 (t - 0.4) m; the biped at 0.2 m/s (the ZMP walker's command limit)
+#: x(t) = 0.195 (t - 2.0) m and reaches a goal 3.2 m away in 16.8 s, 3.9 m in 20 s. It is slow
+#: to walk around an obstacle (+6-7 s; a slow mover can keep it waiting for 20 s), hence the
+#: short goal distances and the 45 s budget. Durations are time budgets: evaluations end a
+#: run once its outcome is settled.
+PROFILES: dict[str, RandomProfile] = {
+    "quadruped": RandomProfile(
+        robot="quadruped", cruise_speed=0.4, nominal_speed=0.4, start_delay=0.4,
+        goal_distance=(5.5, 7.0), duration=36.0, obstacle_count=(1, 3),
+        obstacle_radius=(0.18, 0.35), aspect=(0.6, 1.0), height=(0.8, 1.8),
+        mover_speed=(0.15, 0.35), moving_probability=0.5, kind_weights=(0.4, 0.3, 0.3),
+        bar_probability=0.2, half_width=0.15, in_way_fraction=0.5, passage=1.4,
+        start_clearance=1.0,
+        goal_clearance=1.0, first_station=2.5, last_station=1.5, spacing=1.2,
+        pre_travel=(1.5, 3.5), post_travel=(1.5, 2.5),
+    ),
+    "biped": RandomProfile(
+        robot="biped", cruise_speed=0.2, nominal_speed=0.195, start_delay=2.0,
+        goal_distance=(3.0, 3.6), duration=45.0, obstacle_count=(1, 2),
+        obstacle_radius=(0.15, 0.3), aspect=(0.6, 1.0), height=(1.0, 1.8),
+        mover_speed=(0.1, 0.2), moving_probability=0.7, kind_weights=(0.4, 0.3, 0.3),
+        bar_probability=0.0, half_width=0.15, in_way_fraction=0.5, passage=1.45,
+        start_clearance=0.9,
+        goal_clearance=0.9, first_station=1.4, last_station=1.2, spacing=0.9,
+        pre_travel=(1.0, 2.5), post_travel=(1.3, 2.0), trunk_top=1.1,
+        filter_overrides=dict(BIPED_FILTER_OVERRIDES),
+    ),
+}
+
+
+def profile_for(robot: str, **changes: Any) -> RandomProfile:
+    """The default profile of ``robot`` ('quadruped' / 'biped') with ``changes`` applied."""
+    if robot not in PROFILES:
+        raise ValueError(f"robot must be one of {', '.join(ROBOTS)}, got {robot!r}")
+    return replace(PROFILES[robot], **changes) if changes else PROFILES[robot]
