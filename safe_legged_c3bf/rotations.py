@@ -7,6 +7,7 @@ into its parent (base_link -> odom). Angles in rad.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -68,3 +69,22 @@ def matrix_to_quaternion(rot: np.ndarray) -> tuple[float, float, float, float]:
 def wrap_angle(angle: float) -> float:
     """Wrap an angle to [-pi, pi) (rad)."""
     return (float(angle) + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def rotate(q: Sequence[float], v: Sequence[float]) -> tuple[float, float, float]:
+    """Rotate ``v`` by the unit quaternion ``q`` (x, y, z, w); plain floats, no numpy."""
+    x, y, z, w = q
+    # v' = v + 2 w (u x v) + 2 u x (u x v), u = (x, y, z)
+    cx = y * v[2] - z * v[1]
+    cy = z * v[0] - x * v[2]
+    cz = x * v[1] - y * v[0]
+    return (
+        v[0] + 2.0 * (w * cx + y * cz - z * cy),
+        v[1] + 2.0 * (w * cy + z * cx - x * cz),
+        v[2] + 2.0 * (w * cz + x * cy - y * cx),
+    )
+
+
+def rotate_inverse(q: Sequence[float], v: Sequence[float]) -> tuple[float, float, float]:
+    """Rotate ``v`` by the inverse of the unit quaternion ``q`` (x, y, z, w)."""
+    return rotate((-q[0], -q[1], -q[2], q[3]), v)

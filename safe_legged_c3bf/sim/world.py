@@ -38,6 +38,7 @@ from numpy.typing import ArrayLike
 
 from safe_legged_c3bf.base_state import BaseState
 from safe_legged_c3bf.joint_command import JointCommand
+from safe_legged_c3bf.rotations import rotate_inverse
 from safe_legged_c3bf.sim.camera import CameraConfig, FollowCamera
 from safe_legged_c3bf.sim.goal_progress import GoalProgress
 from safe_legged_c3bf.sim.ground_truth import GroundTruthMonitor, GroundTruthSample
@@ -68,33 +69,6 @@ class JointStateSample:
     velocity: np.ndarray
     effort: np.ndarray
     stamp: float
-
-
-def rotate(q: Sequence[float], v: Sequence[float]) -> tuple[float, float, float]:
-    """Rotate ``v`` by the unit quaternion ``q`` (x, y, z, w); plain floats, no numpy."""
-    x, y, z, w = q
-    # v' = v + 2 w (u x v) + 2 u x (u x v), u = (x, y, z)
-    cx = y * v[2] - z * v[1]
-    cy = z * v[0] - x * v[2]
-    cz = x * v[1] - y * v[0]
-    return (
-        v[0] + 2.0 * (w * cx + y * cz - z * cy),
-        v[1] + 2.0 * (w * cy + z * cx - x * cz),
-        v[2] + 2.0 * (w * cz + x * cy - y * cx),
-    )
-
-
-def rotate_inverse(q: Sequence[float], v: Sequence[float]) -> tuple[float, float, float]:
-    """Rotate ``v`` by the inverse of the unit quaternion ``q`` (x, y, z, w)."""
-    x, y, z, w = -q[0], -q[1], -q[2], q[3]
-    cx = y * v[2] - z * v[1]
-    cy = z * v[0] - x * v[2]
-    cz = x * v[1] - y * v[0]
-    return (
-        v[0] + 2.0 * (w * cx + y * cz - z * cy),
-        v[1] + 2.0 * (w * cy + z * cx - x * cz),
-        v[2] + 2.0 * (w * cz + x * cy - y * cx),
-    )
 
 
 def _float_list(values: ArrayLike, n: int) -> list[float]:
