@@ -69,7 +69,7 @@ _FROM_FILTER = {
     FilterStatus.ACTIVE: CycleStatus.ACTIVE,
     FilterStatus.RELAXED: CycleStatus.RELAXED,
     FilterStatus.EMERGENCY: CycleStatus.EMERGENCY_BRAKE,
-    FilterStatus.FAILSAFE: CycleStatus.EMERGENCY_BRAKE,  # solver failure: brake_decel
+    # FAILSAFE (the solver failed) is answered by braking at brake_decel: see _filtered.
 }
 
 
