@@ -20,6 +20,7 @@ from safe_legged_c3bf.c3bf import (
     cbf_closed_form,
 )
 from safe_legged_c3bf.c3bf import filter as filter_mod
+from safe_legged_c3bf.c3bf import rows as rows_mod
 from safe_legged_c3bf.c3bf.lie import PLANE_AXES
 
 
@@ -404,7 +405,7 @@ def test_unsolvable_hard_qp_falls_back_to_relaxed(monkeypatch):
 
 @pytest.mark.parametrize("model", MODELS, ids=lambda m: type(m).__name__)
 def test_per_obstacle_and_vectorised_rows_agree(model, monkeypatch):
-    """Up to _SCALAR_TERMS_MAX obstacles the barrier terms are computed per obstacle on
+    """Up to SCALAR_TERMS_MAX obstacles the barrier terms are computed per obstacle on
     floats; beyond, vectorised. Both give the same filter output (near, inside, far)."""
     rng = np.random.default_rng(17)
     m = model.n_u
@@ -422,8 +423,8 @@ def test_per_obstacle_and_vectorised_rows_agree(model, monkeypatch):
             obs = Obstacles(c, obs.velocity, obs.radius, obs.plane)
         problems.append((x, u_ref * 3.0, obs))
     results = {}
-    for limit in (filter_mod._SCALAR_TERMS_MAX, 0):
-        monkeypatch.setattr(filter_mod, "_SCALAR_TERMS_MAX", limit)
+    for limit in (rows_mod.SCALAR_TERMS_MAX, 0):
+        monkeypatch.setattr(rows_mod, "SCALAR_TERMS_MAX", limit)
         flt = SafetyFilter(model, u_min=lo, u_max=hi, margin=0.05)
         results[limit] = [flt.filter(x, u, o, yaw=yaw) for x, u, o in problems]
     seen = set()

@@ -49,7 +49,7 @@ from __future__ import annotations
 import math
 import time
 from operator import ge, le, mul, or_
-from typing import Literal, NamedTuple
+from typing import Literal
 
 import numpy as np
 import osqp
@@ -62,61 +62,23 @@ from .errors import InvalidInputError
 from .filter_inputs import FLOAT_MAX, Bounds, check_bounds, check_weights, check_yaw, vector
 from .geometry import Obstacles
 from .inside import INSIDE_REL_CLEARANCE, escape_input, radial_terms, signed_h
-from .lie import _barrier_terms, barrier_terms_scalar
+from .lie import barrier_terms_scalar
 from .models import PointKinematics, RobotModel
 from .osqp_qp import INFEASIBLE, OSQP_DEFAULTS, OSQP_INF, RETRYABLE, HardQP, RelaxedQP
 from .result import FilterResult, FilterStatus
+from .rows import (
+    ACTIVE_TOL,
+    FEAS_TOL,
+    ROUND_TOL,
+    ROW_ZERO,
+    Rows,
+    Terms,
+    obstacle_terms,
+    scale_rows,
+)
 from .solver_status import describe_osqp_status
 
 __all__ = ["SafetyFilter", "cbf_closed_form"]
-
-_ROW_ZERO = 1e-12  # ||Lg h|| below this: the constraint does not depend on u
-_FEAS_TOL = 1e-9  # accepted violation of a unit-norm row [input units], times (1 + |u|)
-_ROUND_TOL = 1e-11  # plus this times ||u_ref|| (rounding of u - u_ref, see active_set)
-_ACTIVE_TOL = 1e-7  # scaled constraint value below which a row counts as binding
-_SCALAR_TERMS_MAX = 16  # obstacles up to which barrier terms are computed per obstacle
-
-class _Terms(NamedTuple):
-    """The parts of :class:`~.lie.BarrierTerms` the QP needs (``(n,)``, ``lg_h`` ``(n, m)``)."""
-
-    h: np.ndarray
-    lf_h: np.ndarray
-    lg_h: np.ndarray
-    clearance: np.ndarray  # ||p_rel||^2 - r^2 [m^2] for the radius r the row uses
-    gap: np.ndarray  # ||p_rel|| - r_true [m] (FilterResult.clearance)
-
-
-def _gap(clearance, radius, obs: Obstacles) -> np.ndarray:
-    """Signed distance [m] from the body point to each true inflated circle (< 0 inside).
-
-    NaN where rounding makes ``||p||^2`` negative (body point at a centre): such a row is
-    inside its circle, and ``_inside`` recomputes its gap with a clamp.
-    """
-    return np.sqrt(clearance + radius * radius) - obs.radius
-
-
-class _Rows(NamedTuple):
-    """The constraint rows ``G u + c0 >= 0`` and their unit-norm form ``Gn u >= bn``."""
-
-    G: np.ndarray
-    c0: np.ndarray
-    Gn: np.ndarray
-    bn: np.ndarray
-    norms: np.ndarray  # ||G_i||
-    dead: np.ndarray  # rows that u cannot influence (kept unscaled)
-    any_dead: bool
-    hopeless: bool  # a dead row is violated: no input can fix it
-
-
-def _scale_rows(G, c0) -> _Rows:
-    """Scale rows to unit norm (same feasible set, better conditioning)."""
-    norms = np.sqrt(np.einsum("ij,ij->i", G, G))
-    dead = norms <= _ROW_ZERO
-    any_dead = bool(dead.any())
-    scale = np.where(dead, 1.0, norms) if any_dead else norms
-    hopeless = any_dead and bool((dead & (c0 < 0.0)).any())
-    return _Rows(G, c0, G / scale[:, None], -c0 / scale, norms, dead, any_dead, hopeless)
-
 
 class SafetyFilter:
     """Collision-cone CBF safety filter (C3BF-QP) for one robot model.
@@ -301,7 +263,7 @@ class SafetyFilter:
         elif self.method == "auto" and psi < 0.0:
             wa = [sum(map(mul, row, lg)) for row in self._w_inv_l]
             den = sum(map(mul, lg, wa))
-            if not den > _ROW_ZERO**2 * (1.0 + abs(psi)):
+            if not den > ROW_ZERO**2 * (1.0 + abs(psi)):
                 return None
             k = psi / den
             ulist = [v - k * w for v, w in zip(ul, wa, strict=True)]
@@ -311,7 +273,7 @@ class SafetyFilter:
         else:
             return None
         con = c0 + sum(map(mul, lg, ulist))
-        active = status is FilterStatus.ACTIVE and con * con <= _ACTIVE_TOL**2 * max(
+        active = status is FilterStatus.ACTIVE and con * con <= ACTIVE_TOL**2 * max(
             sum(map(mul, lg, lg)), 1.0
         )
         vals = np.array([h, con, 0.0 if con >= 0.0 else -con, math.sqrt(clearance + r * r) - r0])
@@ -329,40 +291,15 @@ class SafetyFilter:
             clearance=vals[3:4],
         )
 
-    def _terms(self, kin, obs: Obstacles, radius) -> _Terms:
-        """h, Lf h, Lg h and clearances of every obstacle (``kin`` as tuples).
-
-        Up to ``_SCALAR_TERMS_MAX`` obstacles the scalar formulas per obstacle
-        (``barrier_terms_scalar``, tested against ``barrier_terms``) cost fewer operations
-        than the vectorised ones; beyond that numpy is faster.
-        """
-        n = len(obs)
-        if 0 < n <= _SCALAR_TERMS_MAX:
-            v_eps, fn = self.v_eps, barrier_terms_scalar
-            rows = [
-                fn(kin, c[0], c[1], v[0], v[1], r, pl, v_eps)
-                for c, v, r, pl in zip(
-                    obs.center.tolist(), obs.velocity.tolist(), radius.tolist(),
-                    obs.plane.tolist(), strict=True,
-                )
-            ]
-            h, lf, lg, clearance = zip(*rows, strict=True)
-            cl = np.array(clearance)
-            return _Terms(np.array(h), np.array(lf), np.array(lg), cl, _gap(cl, radius, obs))
-        kin = PointKinematics(*(np.array(k, dtype=float) for k in kin))
-        t = _barrier_terms(kin, obs.center, obs.velocity, radius, obs.plane, self.v_eps)
-        lg = t.lg_h.reshape(n, self.model.n_u)
-        return _Terms(t.h, t.lf_h, lg, t.clearance, _gap(t.clearance, radius, obs))
-
     def _filter(self, x, u0, ul, kin, obs: Obstacles, yaw, t0) -> FilterResult:
         """Barrier terms of every obstacle, then the QP (or the inside-a-circle handling)."""
         radius = obs.radius + self.margin
-        terms = self._terms(kin, obs, radius)
+        terms = obstacle_terms(kin, obs, radius, self.v_eps, self.model.n_u)
         inside = terms.clearance < INSIDE_REL_CLEARANCE * radius * radius
         if self.margin > 0.0 and inside.any():
             # Inside r + margin: use the exact barrier of the true radius r for those rows.
             radius = np.where(inside, obs.radius, radius)
-            terms = self._terms(kin, obs, radius)
+            terms = obstacle_terms(kin, obs, radius, self.v_eps, self.model.n_u)
             inside = terms.clearance < INSIDE_REL_CLEARANCE * radius * radius
         G = terms.lg_h
         c0 = terms.lf_h + self.gamma * terms.h  # constraint: G u + c0 >= 0
@@ -372,7 +309,7 @@ class SafetyFilter:
             return self._inside(x, u0, ul, yaw, kin, obs, radius, terms, inside, t0)
         return self._solve(x, u0, ul, yaw, terms, G, c0, t0)
 
-    def _solve(self, x, u0, ul, yaw, terms: _Terms, G, c0, t0) -> FilterResult:
+    def _solve(self, x, u0, ul, yaw, terms: Terms, G, c0, t0) -> FilterResult:
         """The QP for the rows ``G u + c0 >= 0`` (module docstring, steps 1-5)."""
         cur = self._cur
         in_box = all(map(le, cur.lo_l, ul)) and all(map(le, ul, cur.hi_l))
@@ -380,7 +317,7 @@ class SafetyFilter:
             return self._result(u0.copy(), FilterStatus.INACTIVE, terms, G, c0, "none", t0)
         if self._far:
             return self._far_reference(u0, terms, G, c0, t0)
-        rows = _scale_rows(G, c0)
+        rows = scale_rows(G, c0)
         infeasible = rows.hopeless
         if not infeasible and self.method == "auto":
             u, infeasible = self._active_set(u0, rows)
@@ -390,7 +327,7 @@ class SafetyFilter:
                 )
         return self._solve_osqp(x, u0, yaw, terms, rows, infeasible, t0)
 
-    def _active_set(self, u0, rows: _Rows):
+    def _active_set(self, u0, rows: Rows):
         """Exact dual active-set solve: ``(u or None, infeasible)``; ``u`` verified."""
         cur = self._cur
         any_dead = rows.any_dead
@@ -409,7 +346,7 @@ class SafetyFilter:
                 return u, False
         return None, sol.infeasible  # infeasible: a Farkas certificate
 
-    def _solve_osqp(self, x, u0, yaw, terms: _Terms, rows: _Rows, infeasible, t0):
+    def _solve_osqp(self, x, u0, yaw, terms: Terms, rows: Rows, infeasible, t0):
         """OSQP on the rows that can bind inside the box; the relaxed QP if infeasible."""
         lo_b, hi_b = self._cur.lo, self._cur.hi
         Gn, bn = rows.Gn, rows.bn
@@ -419,7 +356,7 @@ class SafetyFilter:
             row_max = np.where(Gn > 0, Gn * hi_b, np.where(Gn < 0, Gn * lo_b, 0.0)).sum(axis=1)
         redundant = rows.dead | (bn <= row_min)
         lo_rows = np.where(redundant, -OSQP_INF, bn)
-        infeasible = infeasible or bool((bn > row_max + _FEAS_TOL)[~redundant].any())
+        infeasible = infeasible or bool((bn > row_max + FEAS_TOL)[~redundant].any())
         q = -(self.weights @ u0)
         n = len(bn)
         msg = "constraints infeasible within input limits"
@@ -452,7 +389,7 @@ class SafetyFilter:
             )
         return self._result(u, FilterStatus.RELAXED, terms, G, c0, "osqp", t0, msg)
 
-    def _inside(self, x, u0, ul, yaw, kin, obs: Obstacles, radius, terms: _Terms, inside, t0):
+    def _inside(self, x, u0, ul, yaw, kin, obs: Obstacles, radius, terms: Terms, inside, t0):
         """Body point inside >= 1 inflated circle: EMERGENCY (see ``inside``).
 
         Leaving every such circle: the QP with their radial no-deeper rows in place of their
@@ -493,7 +430,7 @@ class SafetyFilter:
         res.active = inside.copy()
         return res
 
-    def _far_reference(self, u0, terms: _Terms, G, c0, t0) -> FilterResult:
+    def _far_reference(self, u0, terms: Terms, G, c0, t0) -> FilterResult:
         """Far ``u_ref`` (beyond ``REF_RATIO_MAX`` x the input scale), not itself admissible.
 
         Its clip when that is the exact optimum (diagonal ``W``, every barrier row holds),
@@ -520,7 +457,7 @@ class SafetyFilter:
         size = math.hypot(*u.tolist())  # (m <= 3: cheaper than numpy reductions)
         if not size <= FLOAT_MAX:  # NaN or inf
             return False
-        tol = _FEAS_TOL * (1.0 + size) + _ROUND_TOL * self._umax
+        tol = FEAS_TOL * (1.0 + size) + ROUND_TOL * self._umax
         return bool((Gn @ u >= lo_rows - tol).all())
 
     def _solve_hard(self, n, Gn, lo_rows, q):
@@ -562,7 +499,7 @@ class SafetyFilter:
         return np.clip(u, self._cur.lo, self._cur.hi), st
 
     def _result(
-        self, u, status, terms: _Terms, G, c0, solver, t0, message="", norms=None
+        self, u, status, terms: Terms, G, c0, solver, t0, message="", norms=None
     ):
         if not np.isfinite(u).all():
             raise FloatingPointError("non-finite filtered input")  # -> FAILSAFE
@@ -572,7 +509,7 @@ class SafetyFilter:
         else:
             if norms is None:
                 norms = np.sqrt(np.einsum("ij,ij->i", G, G))
-            active = con <= _ACTIVE_TOL * np.maximum(norms, 1.0)
+            active = con <= ACTIVE_TOL * np.maximum(norms, 1.0)
         bounds = (u <= self._cur.lo) | (u >= self._cur.hi)
         return FilterResult(
             u_safe=u,
