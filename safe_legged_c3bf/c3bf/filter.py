@@ -48,7 +48,7 @@ from __future__ import annotations
 
 import math
 import time
-from operator import ge, le, mul, or_
+from operator import le
 from typing import Literal
 
 import numpy as np
@@ -56,13 +56,12 @@ import osqp
 
 from .active_set import solve_box_qp
 from .barrier import DEFAULT_V_EPS
-from .closed_form import cbf_closed_form
+from .closed_form import cbf_closed_form, one_obstacle
 from .domain import REF_RATIO_MAX, checked_scalar
 from .errors import InvalidInputError
 from .filter_inputs import FLOAT_MAX, Bounds, check_bounds, check_weights, check_yaw, vector
 from .geometry import Obstacles
 from .inside import INSIDE_REL_CLEARANCE, escape_input, radial_terms, signed_h
-from .lie import barrier_terms_scalar
 from .models import PointKinematics, RobotModel
 from .osqp_qp import INFEASIBLE, OSQP_DEFAULTS, OSQP_INF, RETRYABLE, HardQP, RelaxedQP
 from .result import FilterResult, FilterStatus
@@ -70,7 +69,6 @@ from .rows import (
     ACTIVE_TOL,
     FEAS_TOL,
     ROUND_TOL,
-    ROW_ZERO,
     Rows,
     Terms,
     obstacle_terms,
@@ -219,7 +217,10 @@ class SafetyFilter:
         try:
             kin = model.point_kinematics_tuple(xl, yaw)
             if len(obstacles) == 1 and not far:
-                res = self._filter_one(kin, u0, ul, obstacles, t0)
+                res = one_obstacle(
+                    kin, ul, obstacles, self.margin, self.gamma, self.v_eps, self._cur,
+                    self.method, self._w_inv_l, t0,
+                )
                 if res is not None:
                     return res
             with np.errstate(all="ignore"):  # overflow etc. is detected and handled explicitly
@@ -243,54 +244,6 @@ class SafetyFilter:
         self._warm = (None, ())
 
     # ------------------------------------------------------------------ internals
-    def _filter_one(self, kin, u0, ul, obs: Obstacles, t0) -> FilterResult | None:
-        """Scalar fast path for one obstacle: INACTIVE or exact closed form, else None."""
-        (c,), (cv,), (r0,), (pl,) = obs.as_lists
-        r = r0 + self.margin
-        h, lf, lg, clearance = barrier_terms_scalar(
-            kin, c[0], c[1], cv[0], cv[1], r, pl, self.v_eps
-        )
-        if not clearance > INSIDE_REL_CLEARANCE * r * r:
-            return None  # inside the margin band / emergency (or NaN): general path
-        c0 = lf + self.gamma * h
-        psi = c0 + sum(map(mul, lg, ul))
-        if not math.isfinite(psi):
-            return None  # overflow: the general path fails safe
-        lo_b, hi_b = self._cur.lo_l, self._cur.hi_l
-        in_box = all(map(le, lo_b, ul)) and all(map(le, ul, hi_b))
-        if in_box and psi >= 0.0:
-            status, u, ulist, solver = FilterStatus.INACTIVE, np.array(ul), ul, "none"
-        elif self.method == "auto" and psi < 0.0:
-            wa = [sum(map(mul, row, lg)) for row in self._w_inv_l]
-            den = sum(map(mul, lg, wa))
-            if not den > ROW_ZERO**2 * (1.0 + abs(psi)):
-                return None
-            k = psi / den
-            ulist = [v - k * w for v, w in zip(ul, wa, strict=True)]
-            if not (all(map(le, lo_b, ulist)) and all(map(le, ulist, hi_b))):
-                return None
-            status, u, solver = FilterStatus.ACTIVE, np.array(ulist), "closed_form"
-        else:
-            return None
-        con = c0 + sum(map(mul, lg, ulist))
-        active = status is FilterStatus.ACTIVE and con * con <= ACTIVE_TOL**2 * max(
-            sum(map(mul, lg, lg)), 1.0
-        )
-        vals = np.array([h, con, 0.0 if con >= 0.0 else -con, math.sqrt(clearance + r * r) - r0])
-        flags = np.array([active, *map(or_, map(le, ulist, lo_b), map(ge, ulist, hi_b))])
-        return FilterResult(
-            u_safe=u,
-            status=status,
-            h=vals[0:1],
-            constraint=vals[1:2],
-            slack=vals[2:3],
-            active=flags[0:1],
-            bounds_active=flags[1:],
-            solver=solver,
-            solve_time=time.perf_counter() - t0,
-            clearance=vals[3:4],
-        )
-
     def _filter(self, x, u0, ul, kin, obs: Obstacles, yaw, t0) -> FilterResult:
         """Barrier terms of every obstacle, then the QP (or the inside-a-circle handling)."""
         radius = obs.radius + self.margin
