@@ -63,7 +63,7 @@ from .filter_inputs import FLOAT_MAX, Bounds, check_bounds, check_weights, check
 from .geometry import Obstacles
 from .inside import INSIDE_REL_CLEARANCE, escape_input, radial_terms, signed_h
 from .models import PointKinematics, RobotModel
-from .osqp_qp import INFEASIBLE, OSQP_DEFAULTS, OSQP_INF, RETRYABLE, HardQP, RelaxedQP
+from .osqp_qp import INFEASIBLE, OSQP_INF, RETRYABLE, QPSolvers
 from .result import FilterResult, FilterStatus
 from .rows import (
     ACTIVE_TOL,
@@ -152,20 +152,10 @@ class SafetyFilter:
             raise InvalidInputError("method must be 'auto' or 'qp'")
         self.method = method
         relax_penalty = checked_scalar("relax_penalty", relax_penalty, 0.0, low_open=True)
-        self._rho = relax_penalty * float(np.linalg.eigvalsh(w).max())
         self.brake_gain = checked_scalar("brake_gain", brake_gain, 0.0)
         self.escape_accel = checked_scalar("escape_accel", escape_accel, 0.0)
         self.exit_speed = checked_scalar("exit_speed", exit_speed, 0.0)
-        self._osqp_settings = {**OSQP_DEFAULTS, **(osqp_settings or {})}
-        # The relaxed QP is a fallback whose answer is a compromise anyway: looser tolerances
-        # (still polished) keep its worst-case iteration count low.
-        self._osqp_relaxed = {
-            **self._osqp_settings,
-            "eps_abs": max(self._osqp_settings["eps_abs"], 1e-5),
-            "eps_rel": max(self._osqp_settings["eps_rel"], 1e-5),
-        }
-        self._hard: dict[int, HardQP] = {}
-        self._relaxed: dict[int, RelaxedQP] = {}
+        self._qp = QPSolvers(w, relax_penalty, osqp_settings)
         self._warm: tuple = (None, ())  # (row layout, active rows) of the last active-set solve
 
     # ------------------------------------------------------------------ public API
@@ -239,8 +229,7 @@ class SafetyFilter:
 
     def reset(self) -> None:
         """Drop the cached OSQP solvers and active set (warm starts restart from scratch)."""
-        self._hard.clear()
-        self._relaxed.clear()
+        self._qp.clear()
         self._warm = (None, ())
 
     # ------------------------------------------------------------------ internals
@@ -314,7 +303,7 @@ class SafetyFilter:
         n = len(bn)
         msg = "constraints infeasible within input limits"
         if not infeasible:
-            u, ok, st = self._solve_hard(n, Gn, lo_rows, q)
+            u, ok, st = self._qp.solve_hard(n, Gn, lo_rows, lo_b, hi_b, q, self._verify)
             if ok:
                 msg = "" if st == osqp.SolverStatus.OSQP_SOLVED else (
                     f"hard QP {describe_osqp_status(st)}: feasible, optimality not certified"
@@ -335,7 +324,7 @@ class SafetyFilter:
                         )
                 if not infeasible:
                     msg = f"hard QP not solved to tolerance ({words}): relaxed QP used"
-        u, st = self._solve_relaxed(n, Gn, lo_rows, q)
+        u, st = self._qp.solve_relaxed(n, Gn, lo_rows, lo_b, hi_b, q)
         if u is None:
             return self._failsafe(
                 x, yaw, n, t0, f"relaxed QP failed: {describe_osqp_status(st)}", terms, G, c0
@@ -412,44 +401,6 @@ class SafetyFilter:
             return False
         tol = FEAS_TOL * (1.0 + size) + ROUND_TOL * self._umax
         return bool((Gn @ u >= lo_rows - tol).all())
-
-    def _solve_hard(self, n, Gn, lo_rows, q):
-        qp = self._hard.get(n)
-        if qp is None:
-            qp = self._hard[n] = HardQP(n, self.model.n_u, self.weights, self._osqp_settings)
-        u, st = qp.solve(Gn, lo_rows, self._cur.lo, self._cur.hi, q)
-        solved = (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE)
-        if st in solved or st == osqp.SolverStatus.OSQP_MAX_ITER_REACHED:
-            u = np.clip(u, self._cur.lo, self._cur.hi)
-            if st == osqp.SolverStatus.OSQP_SOLVED and self._verify(u, Gn, lo_rows):
-                return u, True, st
-            # Not certified (an iterate at the iteration limit can be feasible yet far from
-            # optimal) or not verified: tighten and re-solve, warm started from that iterate.
-            qp.tighten(1e-3)
-            try:
-                u2, st = qp.solve(Gn, lo_rows, self._cur.lo, self._cur.hi, q)
-            finally:
-                qp.restore()
-            u2 = np.clip(u2, self._cur.lo, self._cur.hi)
-            if st in solved and self._verify(u2, Gn, lo_rows):
-                return u2, True, st
-        return None, False, st
-
-    def _solve_relaxed(self, n, Gn, lo_rows, q):
-        qp = self._relaxed.get(n)
-        if qp is None:
-            qp = self._relaxed[n] = RelaxedQP(
-                n, self.model.n_u, self.weights, self._rho, self._osqp_relaxed
-            )
-        u, st = qp.solve(Gn, lo_rows, self._cur.lo, self._cur.hi, q)
-        ok = (
-            osqp.SolverStatus.OSQP_SOLVED,
-            osqp.SolverStatus.OSQP_SOLVED_INACCURATE,
-            osqp.SolverStatus.OSQP_MAX_ITER_REACHED,
-        )
-        if st not in ok or not np.isfinite(u).all():
-            return None, st
-        return np.clip(u, self._cur.lo, self._cur.hi), st
 
     def _result(
         self, u, status, terms: Terms, G, c0, solver, t0, message="", norms=None
