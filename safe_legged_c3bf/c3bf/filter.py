@@ -60,13 +60,13 @@ from .closed_form import cbf_closed_form, one_obstacle
 from .domain import REF_RATIO_MAX, checked_scalar
 from .errors import InvalidInputError
 from .filter_inputs import FLOAT_MAX, Bounds, check_bounds, check_weights, check_yaw, vector
+from .filter_outputs import failsafe_result, make_result
 from .geometry import Obstacles
 from .inside import INSIDE_REL_CLEARANCE, escape_input, radial_terms, signed_h
 from .models import PointKinematics, RobotModel
 from .osqp_qp import INFEASIBLE, OSQP_INF, RETRYABLE, QPSolvers
 from .result import FilterResult, FilterStatus
 from .rows import (
-    ACTIVE_TOL,
     FEAS_TOL,
     ROUND_TOL,
     Rows,
@@ -256,7 +256,7 @@ class SafetyFilter:
         cur = self._cur
         in_box = all(map(le, cur.lo_l, ul)) and all(map(le, ul, cur.hi_l))
         if in_box and (G @ u0 + c0 >= 0.0).all():
-            return self._result(u0.copy(), FilterStatus.INACTIVE, terms, G, c0, "none", t0)
+            return make_result(u0.copy(), FilterStatus.INACTIVE, terms, G, c0, cur, "none", t0)
         if self._far:
             return self._far_reference(u0, terms, G, c0, t0)
         rows = scale_rows(G, c0)
@@ -264,8 +264,8 @@ class SafetyFilter:
         if not infeasible and self.method == "auto":
             u, infeasible = self._active_set(u0, rows)
             if u is not None:
-                return self._result(
-                    u, FilterStatus.ACTIVE, terms, G, c0, "active_set", t0, norms=rows.norms
+                return make_result(
+                    u, FilterStatus.ACTIVE, terms, G, c0, cur, "active_set", t0, norms=rows.norms
                 )
         return self._solve_osqp(x, u0, yaw, terms, rows, infeasible, t0)
 
@@ -290,7 +290,8 @@ class SafetyFilter:
 
     def _solve_osqp(self, x, u0, yaw, terms: Terms, rows: Rows, infeasible, t0):
         """OSQP on the rows that can bind inside the box; the relaxed QP if infeasible."""
-        lo_b, hi_b = self._cur.lo, self._cur.hi
+        cur = self._cur
+        lo_b, hi_b = cur.lo, cur.hi
         Gn, bn = rows.Gn, rows.bn
         G, c0 = rows.G, rows.c0
         with np.errstate(invalid="ignore"):
@@ -308,7 +309,7 @@ class SafetyFilter:
                 msg = "" if st == osqp.SolverStatus.OSQP_SOLVED else (
                     f"hard QP {describe_osqp_status(st)}: feasible, optimality not certified"
                 )
-                return self._result(u, FilterStatus.ACTIVE, terms, G, c0, "osqp", t0, msg)
+                return make_result(u, FilterStatus.ACTIVE, terms, G, c0, cur, "osqp", t0, msg)
             if st not in INFEASIBLE:
                 words = describe_osqp_status(st)
                 if st not in RETRYABLE:
@@ -319,8 +320,8 @@ class SafetyFilter:
                     u, infeasible = self._active_set(u0, rows)
                     if u is not None:
                         msg = f"hard QP {words}: answered by the exact active-set method"
-                        return self._result(
-                            u, FilterStatus.ACTIVE, terms, G, c0, "active_set", t0, msg
+                        return make_result(
+                            u, FilterStatus.ACTIVE, terms, G, c0, cur, "active_set", t0, msg
                         )
                 if not infeasible:
                     msg = f"hard QP not solved to tolerance ({words}): relaxed QP used"
@@ -329,7 +330,7 @@ class SafetyFilter:
             return self._failsafe(
                 x, yaw, n, t0, f"relaxed QP failed: {describe_osqp_status(st)}", terms, G, c0
             )
-        return self._result(u, FilterStatus.RELAXED, terms, G, c0, "osqp", t0, msg)
+        return make_result(u, FilterStatus.RELAXED, terms, G, c0, cur, "osqp", t0, msg)
 
     def _inside(self, x, u0, ul, yaw, kin, obs: Obstacles, radius, terms: Terms, inside, t0):
         """Body point inside >= 1 inflated circle: EMERGENCY (see ``inside``).
@@ -368,7 +369,7 @@ class SafetyFilter:
             u = self._brake(x, yaw)
         u = np.clip(u, self._cur.lo, self._cur.hi)
         msg = f"inside the inflated radius of obstacle(s) {names}, not leaving: brake, back out"
-        res = self._result(u, FilterStatus.EMERGENCY, terms, G, c0, "none", t0, msg)
+        res = make_result(u, FilterStatus.EMERGENCY, terms, G, c0, self._cur, "none", t0, msg)
         res.active = inside.copy()
         return res
 
@@ -385,7 +386,7 @@ class SafetyFilter:
                 f"u_ref beyond {REF_RATIO_MAX:.0e} x the input scale: clipped to the limits "
                 "(exact: the clip satisfies every barrier constraint)"
             )
-            return self._result(uc, FilterStatus.ACTIVE, terms, G, c0, "clip", t0, msg)
+            return make_result(uc, FilterStatus.ACTIVE, terms, G, c0, cur, "clip", t0, msg)
         i = int(np.argmax(np.abs(u0)))
         raise InvalidInputError(
             f"u_ref[{i}] = {float(u0[i])!r} is beyond {REF_RATIO_MAX:.0e} x the input scale "
@@ -402,57 +403,12 @@ class SafetyFilter:
         tol = FEAS_TOL * (1.0 + size) + ROUND_TOL * self._umax
         return bool((Gn @ u >= lo_rows - tol).all())
 
-    def _result(
-        self, u, status, terms: Terms, G, c0, solver, t0, message="", norms=None
-    ):
-        if not np.isfinite(u).all():
-            raise FloatingPointError("non-finite filtered input")  # -> FAILSAFE
-        con = c0 + G @ u
-        if status is FilterStatus.INACTIVE:
-            active = np.zeros(con.shape, dtype=bool)
-        else:
-            if norms is None:
-                norms = np.sqrt(np.einsum("ij,ij->i", G, G))
-            active = con <= ACTIVE_TOL * np.maximum(norms, 1.0)
-        bounds = (u <= self._cur.lo) | (u >= self._cur.hi)
-        return FilterResult(
-            u_safe=u,
-            status=status,
-            h=terms.h,
-            constraint=con,
-            slack=np.maximum(-con, 0.0),
-            active=active,
-            bounds_active=bounds,
-            solver=solver,
-            solve_time=time.perf_counter() - t0,
-            message=message,
-            clearance=terms.gap,
-        )
-
     def _brake(self, x, yaw) -> np.ndarray:
+        """The model's brake input, non-finite entries 0, clipped to the call's limits."""
         u = np.asarray(self.model.brake_input(x, yaw, self.brake_gain), dtype=float)
         u = np.where(np.isfinite(u), u, 0.0)
         return np.clip(u, self._cur.lo, self._cur.hi)
 
     def _failsafe(self, x, yaw, n, t0, message, terms=None, G=None, c0=None) -> FilterResult:
-        u = self._brake(x, yaw)
-        u = np.where(np.isfinite(u), u, np.clip(0.0, self._cur.lo, self._cur.hi))
-        if terms is None or G is None or c0 is None:
-            h = con = gap = np.zeros(n)
-        else:
-            h = np.nan_to_num(terms.h)
-            con = np.nan_to_num(c0 + G @ u)
-            gap = np.nan_to_num(terms.gap)
-        return FilterResult(
-            u_safe=u,
-            status=FilterStatus.FAILSAFE,
-            h=h,
-            constraint=con,
-            slack=np.maximum(-con, 0.0),
-            active=np.zeros(n, dtype=bool),
-            bounds_active=(u <= self._cur.lo) | (u >= self._cur.hi),
-            solver="none",
-            solve_time=time.perf_counter() - t0,
-            message=message,
-            clearance=gap,
-        )
+        """FAILSAFE: the brake input; the rows' numbers when known (``failsafe_result``)."""
+        return failsafe_result(self._brake(x, yaw), n, self._cur, t0, message, terms, G, c0)
