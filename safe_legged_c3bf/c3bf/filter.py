@@ -62,7 +62,7 @@ from .errors import InvalidInputError
 from .filter_inputs import FLOAT_MAX, Bounds, check_bounds, check_weights, check_yaw, vector
 from .filter_outputs import failsafe_result, make_result
 from .geometry import Obstacles
-from .inside import INSIDE_REL_CLEARANCE, escape_input, radial_terms, signed_h
+from .inside import INSIDE_REL_CLEARANCE, escape_input, inside_rows
 from .models import PointKinematics, RobotModel
 from .osqp_qp import INFEASIBLE, OSQP_INF, RETRYABLE, QPSolvers
 from .result import FilterResult, FilterStatus
@@ -339,16 +339,9 @@ class SafetyFilter:
         cone rows. Otherwise: brake and back out of them (the escape input).
         """
         kin = PointKinematics(*(np.array(k, dtype=float) for k in kin))
-        idx = np.flatnonzero(inside)
-        rad = radial_terms(kin, obs.center[idx], obs.velocity[idx], obs.plane[idx])
-        G = terms.lg_h.copy()
-        c0 = terms.lf_h + self.gamma * terms.h
-        G[idx] = rad.lg
-        c0[idx] = rad.lf + self.gamma * (rad.speed - self.exit_speed)
-        h, gap = terms.h.copy(), terms.gap.copy()
-        h[idx] = signed_h(h[idx], terms.clearance[idx], radius[idx], self.gamma)
-        gap[idx] = np.sqrt((rad.p_rel * rad.p_rel).sum(-1)) - obs.radius[idx]
-        terms = terms._replace(h=h, gap=gap)
+        idx, rad, terms, G, c0 = inside_rows(
+            kin, obs, radius, terms, inside, self.gamma, self.exit_speed
+        )
         names = idx.tolist()
         if (rad.speed > 0.0).all():
             res = self._solve(x, u0, ul, yaw, terms, G, c0, t0)
