@@ -73,6 +73,7 @@ from .rows import (
     Terms,
     obstacle_terms,
     scale_rows,
+    screen_rows,
 )
 from .solver_status import describe_osqp_status
 
@@ -292,16 +293,10 @@ class SafetyFilter:
         """OSQP on the rows that can bind inside the box; the relaxed QP if infeasible."""
         cur = self._cur
         lo_b, hi_b = cur.lo, cur.hi
-        Gn, bn = rows.Gn, rows.bn
-        G, c0 = rows.G, rows.c0
-        with np.errstate(invalid="ignore"):
-            row_min = np.where(Gn > 0, Gn * lo_b, np.where(Gn < 0, Gn * hi_b, 0.0)).sum(axis=1)
-            row_max = np.where(Gn > 0, Gn * hi_b, np.where(Gn < 0, Gn * lo_b, 0.0)).sum(axis=1)
-        redundant = rows.dead | (bn <= row_min)
-        lo_rows = np.where(redundant, -OSQP_INF, bn)
-        infeasible = infeasible or bool((bn > row_max + FEAS_TOL)[~redundant].any())
+        Gn, G, c0 = rows.Gn, rows.G, rows.c0
+        lo_rows, infeasible = screen_rows(rows, lo_b, hi_b, infeasible)
         q = -(self.weights @ u0)
-        n = len(bn)
+        n = len(rows.bn)
         msg = "constraints infeasible within input limits"
         if not infeasible:
             u, ok, st = self._qp.solve_hard(n, Gn, lo_rows, lo_b, hi_b, q, self._verify)

@@ -3,8 +3,9 @@
 Obstacle ``i`` gives the row ``G_i u + c0_i >= 0`` with ``G_i = Lg h_i`` and
 ``c0_i = Lf h_i + gamma h_i`` (see ``filter``). :func:`obstacle_terms` computes the barrier
 terms of every obstacle (per obstacle on floats for a few, vectorised beyond);
-:func:`scale_rows` the unit-norm form ``Gn u >= bn`` the solvers use. The tolerances below
-are shared by the filter's solve paths.
+:func:`scale_rows` the unit-norm form ``Gn u >= bn`` the solvers use; :func:`screen_rows`
+which of them can bind inside the input box. The tolerances below are shared by the
+filter's solve paths.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import numpy as np
 from .geometry import Obstacles
 from .lie import _barrier_terms, barrier_terms_scalar
 from .models import PointKinematics
+from .osqp_qp import OSQP_INF
 
 __all__ = [
     "ACTIVE_TOL",
@@ -27,6 +29,7 @@ __all__ = [
     "Terms",
     "obstacle_terms",
     "scale_rows",
+    "screen_rows",
 ]
 
 ROW_ZERO = 1e-12  # ||Lg h|| below this: the constraint does not depend on u
@@ -102,3 +105,19 @@ def scale_rows(G, c0) -> Rows:
     scale = np.where(dead, 1.0, norms) if any_dead else norms
     hopeless = any_dead and bool((dead & (c0 < 0.0)).any())
     return Rows(G, c0, G / scale[:, None], -c0 / scale, norms, dead, any_dead, hopeless)
+
+
+def screen_rows(rows: Rows, lo, hi, infeasible: bool) -> tuple[np.ndarray, bool]:
+    """``(lo_rows, infeasible)`` of the unit-norm rows over the box ``lo <= u <= hi``.
+
+    ``lo_rows``: ``bn``, with ``-OSQP_INF`` for rows that cannot bind inside the box (dead,
+    or holding at every point of it). ``infeasible``: already known (``infeasible`` given),
+    or a binding row cannot hold anywhere in the box.
+    """
+    Gn, bn = rows.Gn, rows.bn
+    with np.errstate(invalid="ignore"):
+        row_min = np.where(Gn > 0, Gn * lo, np.where(Gn < 0, Gn * hi, 0.0)).sum(axis=1)
+        row_max = np.where(Gn > 0, Gn * hi, np.where(Gn < 0, Gn * lo, 0.0)).sum(axis=1)
+    redundant = rows.dead | (bn <= row_min)
+    lo_rows = np.where(redundant, -OSQP_INF, bn)
+    return lo_rows, infeasible or bool((bn > row_max + FEAS_TOL)[~redundant].any())
