@@ -57,7 +57,7 @@ import osqp
 from .active_set import solve_box_qp
 from .barrier import DEFAULT_V_EPS
 from .closed_form import cbf_closed_form, one_obstacle
-from .domain import REF_RATIO_MAX, checked_scalar
+from .domain import REF_RATIO_MAX, checked_scalar, far_reference_error
 from .errors import InvalidInputError
 from .filter_inputs import FLOAT_MAX, Bounds, check_bounds, check_weights, check_yaw, vector
 from .filter_outputs import failsafe_result, make_result
@@ -375,13 +375,7 @@ class SafetyFilter:
                 "(exact: the clip satisfies every barrier constraint)"
             )
             return make_result(uc, FilterStatus.ACTIVE, terms, G, c0, cur, "clip", t0, msg)
-        i = int(np.argmax(np.abs(u0)))
-        raise InvalidInputError(
-            f"u_ref[{i}] = {float(u0[i])!r} is beyond {REF_RATIO_MAX:.0e} x the input scale "
-            f"{cur.scale:g} (1 + largest finite limit) and the optimum is not its clip to the "
-            "limits: rounding would dominate the QP's answer; bring the reference within the "
-            "bound"
-        )
+        raise far_reference_error(u0, cur.scale)
 
     def _verify(self, u, Gn, lo_rows) -> bool:
         """Every (unit-norm) row holds at ``u`` within the rounding of the numbers involved."""
