@@ -42,6 +42,11 @@ Inputs outside the numeric domain (NaN/Inf, ``|x| > 1e9``, wrong shapes; see ``d
 raise :class:`~.errors.InvalidInputError` naming the entry, before any work. A reference
 beyond ``domain.REF_RATIO_MAX`` x the input scale is answered only where the answer is exact
 (its clip), else refused the same way.
+
+This module holds the policy (which step answers, statuses, messages); the parts live in
+``filter_inputs`` (validation), ``rows`` (barrier terms, unit-norm rows), ``closed_form``
+(step 2), ``active_set`` (step 3), ``osqp_qp`` (steps 4-5), ``inside`` (step 6) and
+``filter_outputs`` (the :class:`~.result.FilterResult`).
 """
 
 from __future__ import annotations
@@ -66,15 +71,7 @@ from .inside import INSIDE_REL_CLEARANCE, escape_input, inside_rows
 from .models import PointKinematics, RobotModel
 from .osqp_qp import INFEASIBLE, OSQP_INF, RETRYABLE, QPSolvers
 from .result import FilterResult, FilterStatus
-from .rows import (
-    FEAS_TOL,
-    ROUND_TOL,
-    Rows,
-    Terms,
-    obstacle_terms,
-    scale_rows,
-    screen_rows,
-)
+from .rows import FEAS_TOL, ROUND_TOL, Rows, Terms, obstacle_terms, scale_rows, screen_rows
 from .solver_status import describe_osqp_status
 
 __all__ = ["SafetyFilter", "cbf_closed_form"]
