@@ -20,7 +20,7 @@ from safe_legged_c3bf.c3bf import (
     XZDoubleIntegratorModel,
     c3bf_lie_derivatives,
 )
-from safe_legged_c3bf.c3bf import filter as filter_mod
+from safe_legged_c3bf.c3bf import osqp_qp as qp_mod
 from safe_legged_c3bf.c3bf.domain import REF_RATIO_MAX
 from safe_legged_c3bf.c3bf.inside import radial_terms
 from safe_legged_c3bf.c3bf.lie import PLANE_AXES
@@ -49,8 +49,8 @@ def test_filter_messages_name_the_osqp_status_in_words(code, monkeypatch):
     def fake_solve(self, *args, **kwargs):
         return ok.copy(), code
 
-    monkeypatch.setattr(filter_mod.HardQP, "solve", fake_solve)
-    monkeypatch.setattr(filter_mod.RelaxedQP, "solve", fake_solve)
+    monkeypatch.setattr(qp_mod.HardQP, "solve", fake_solve)
+    monkeypatch.setattr(qp_mod.RelaxedQP, "solve", fake_solve)
     monkeypatch.setattr(SafetyFilter, "_verify", lambda self, *a: False)
     r = flt.filter(X_UH, [1.0, 0.0, 0.0], obs)
     assert np.isfinite(r.u_safe).all()
@@ -282,7 +282,7 @@ def test_clearance_is_reported_with_every_status(monkeypatch):
     r = tight.filter(x, [1.0, 0.0], obs, yaw=0.0)
     assert r.status is FilterStatus.RELAXED
     np.testing.assert_allclose(r.clearance, expected, atol=1e-12)
-    monkeypatch.setattr(filter_mod.RelaxedQP, "solve", lambda self, *a: (np.zeros(2), 9))
+    monkeypatch.setattr(qp_mod.RelaxedQP, "solve", lambda self, *a: (np.zeros(2), 9))
     r = tight.filter(x, [1.0, 0.0], obs, yaw=0.0)
     assert r.status is FilterStatus.FAILSAFE and "non-convex" in r.message
     np.testing.assert_allclose(r.clearance, expected, atol=1e-12)

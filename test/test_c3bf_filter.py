@@ -20,6 +20,8 @@ from safe_legged_c3bf.c3bf import (
     cbf_closed_form,
 )
 from safe_legged_c3bf.c3bf import filter as filter_mod
+from safe_legged_c3bf.c3bf import osqp_qp as qp_mod
+from safe_legged_c3bf.c3bf import rows as rows_mod
 from safe_legged_c3bf.c3bf.lie import PLANE_AXES
 
 
@@ -300,7 +302,7 @@ def test_solver_failure_falls_back_to_brake(monkeypatch):
     def boom(*args, **kwargs):
         raise RuntimeError("solver exploded")
 
-    monkeypatch.setattr(filter_mod.HardQP, "solve", boom)
+    monkeypatch.setattr(qp_mod.HardQP, "solve", boom)
     r = flt.filter(x, [1.0, 0.0, 0.0], obs)
     assert r.status is FilterStatus.FAILSAFE and "exploded" in r.message
     np.testing.assert_allclose(r.u_safe, -2.0 * np.array([1.0, 0.5, 0.2]))
@@ -339,9 +341,9 @@ def test_osqp_solver_is_reused_per_problem_size(monkeypatch):
         x, u_ref, obs = random_problem(rng, model, 3)
         flt.filter(x, u_ref + np.array([3.0, 0, 0]), obs)
     assert len(calls) <= 2  # hard QP (+ relaxed QP if ever needed) for n = 3
-    assert set(flt._hard) == {3}
+    assert set(flt._qp.hard) == {3}
     flt.reset()
-    assert not flt._hard
+    assert not flt._qp.hard
 
 
 def test_unverified_osqp_solution_is_resolved_with_tighter_tolerances(monkeypatch):
@@ -359,14 +361,14 @@ def test_unverified_osqp_solution_is_resolved_with_tighter_tolerances(monkeypatc
 
     monkeypatch.setattr(SafetyFilter, "_verify", flaky_verify)
     tightened = []
-    orig_tighten = filter_mod.HardQP.tighten
-    monkeypatch.setattr(filter_mod.HardQP, "tighten",
+    orig_tighten = qp_mod.HardQP.tighten
+    monkeypatch.setattr(qp_mod.HardQP, "tighten",
                         lambda self, f: (tightened.append(f), orig_tighten(self, f)))
     r = flt.filter(x, u_ref + np.array([2.0, 0.0, 0.0]), obs)
     assert tightened and len(calls) == 2
     assert r.status is ref.status
     np.testing.assert_allclose(r.u_safe, ref.u_safe, atol=1e-6)
-    assert flt._hard[4].solver.settings.eps_abs == filter_mod.OSQP_DEFAULTS["eps_abs"]
+    assert flt._qp.hard[4].solver.settings.eps_abs == qp_mod.OSQP_DEFAULTS["eps_abs"]
 
 
 def test_per_call_limits_override_constructor_limits():
@@ -404,7 +406,7 @@ def test_unsolvable_hard_qp_falls_back_to_relaxed(monkeypatch):
 
 @pytest.mark.parametrize("model", MODELS, ids=lambda m: type(m).__name__)
 def test_per_obstacle_and_vectorised_rows_agree(model, monkeypatch):
-    """Up to _SCALAR_TERMS_MAX obstacles the barrier terms are computed per obstacle on
+    """Up to SCALAR_TERMS_MAX obstacles the barrier terms are computed per obstacle on
     floats; beyond, vectorised. Both give the same filter output (near, inside, far)."""
     rng = np.random.default_rng(17)
     m = model.n_u
@@ -422,8 +424,8 @@ def test_per_obstacle_and_vectorised_rows_agree(model, monkeypatch):
             obs = Obstacles(c, obs.velocity, obs.radius, obs.plane)
         problems.append((x, u_ref * 3.0, obs))
     results = {}
-    for limit in (filter_mod._SCALAR_TERMS_MAX, 0):
-        monkeypatch.setattr(filter_mod, "_SCALAR_TERMS_MAX", limit)
+    for limit in (rows_mod.SCALAR_TERMS_MAX, 0):
+        monkeypatch.setattr(rows_mod, "SCALAR_TERMS_MAX", limit)
         flt = SafetyFilter(model, u_min=lo, u_max=hi, margin=0.05)
         results[limit] = [flt.filter(x, u, o, yaw=yaw) for x, u, o in problems]
     seen = set()

@@ -128,6 +128,47 @@ def _warm_start(warm, kk, r, n_rows: int, m: int, mu: np.ndarray) -> list[int]:
     return S
 
 
+def _add_row(p: int, sp: float, S: list[int], mu: np.ndarray, kk, m: int):
+    """Major step 2: move until the violated row ``p`` (value ``sp < 0``) is tight.
+
+    Moves along the direction that changes ``a_p d`` and keeps the rows of ``S`` tight; a row
+    of ``S`` whose multiplier would turn negative first is dropped (partial step) and the
+    move goes on. Updates ``S`` and ``mu`` in place. Returns None once ``p`` joined ``S``
+    (full step), else the final :class:`ActiveSetResult`: infeasible (``a_p`` depends on
+    ``S`` with no positive coefficient: a Farkas certificate) or unknown (singular system).
+    """
+    kpp = kk(p, p)
+    while True:
+        if S:
+            kps = [kk(p, j) for j in S]
+            rd = _solve([[kk(i, j) for j in S] for i in S], kps)  # S-multipliers' rates
+            if rd is None:
+                return ActiveSetResult(None, False)
+            # a_p d changes by zp per unit step (d moves by W^-1 (a_p - A_S^T rd)).
+            zp = kpp - sum(x * c for x, c in zip(kps, rd, strict=True))
+            pos_tol = _POS_TOL * (1.0 + max(map(abs, rd)))
+        else:
+            rd, zp, pos_tol = [], kpp, 0.0
+        t1, block = math.inf, -1  # partial step: first S-multiplier to reach zero
+        for j, c in zip(S, rd, strict=True):
+            if c > pos_tol and mu[j] / c < t1:
+                t1, block = float(mu[j] / c), j
+        # full step (a_p independent of S; with m rows in S it cannot be)
+        t2 = -sp / zp if len(S) < m and zp > _DEP_TOL * kpp else math.inf
+        if t1 == math.inf and t2 == math.inf:
+            return ActiveSetResult(None, True)  # a_p depends on S with rd <= 0: Farkas
+        t = min(t1, t2)
+        sp += t * zp
+        for j, c in zip(S, rd, strict=True):
+            mu[j] -= t * c
+        mu[p] += t
+        if t2 <= t1:
+            S.append(p)
+            return None
+        mu[block] = 0.0
+        S.remove(block)
+
+
 def solve_box_qp(
     w_inv: np.ndarray,
     u0: np.ndarray,
@@ -189,36 +230,8 @@ def solve_box_qp(
         p = int(s.argmin())
         if not s[p] < -viol_tol:
             return ActiveSetResult(u0 + V @ mu, False, tuple(S))
-        sp = float(s[p])
-        kpp = kk(p, p)
         # Step 2: add p, dropping rows whose multiplier would turn negative on the way.
-        while True:
-            if S:
-                kps = [kk(p, j) for j in S]
-                rd = _solve([[kk(i, j) for j in S] for i in S], kps)  # S-multipliers' rates
-                if rd is None:
-                    return ActiveSetResult(None, False)
-                # a_p d changes by zp per unit step (d moves by W^-1 (a_p - A_S^T rd)).
-                zp = kpp - sum(x * c for x, c in zip(kps, rd, strict=True))
-                pos_tol = _POS_TOL * (1.0 + max(map(abs, rd)))
-            else:
-                rd, zp, pos_tol = [], kpp, 0.0
-            t1, block = math.inf, -1  # partial step: first S-multiplier to reach zero
-            for j, c in zip(S, rd, strict=True):
-                if c > pos_tol and mu[j] / c < t1:
-                    t1, block = float(mu[j] / c), j
-            # full step (a_p independent of S; with m rows in S it cannot be)
-            t2 = -sp / zp if len(S) < m and zp > _DEP_TOL * kpp else math.inf
-            if t1 == math.inf and t2 == math.inf:
-                return ActiveSetResult(None, True)  # a_p depends on S with rd <= 0: Farkas
-            t = min(t1, t2)
-            sp += t * zp
-            for j, c in zip(S, rd, strict=True):
-                mu[j] -= t * c
-            mu[p] += t
-            if t2 <= t1:
-                S.append(p)
-                break
-            mu[block] = 0.0
-            S.remove(block)
+        stop = _add_row(p, float(s[p]), S, mu, kk, m)
+        if stop is not None:
+            return stop
     return ActiveSetResult(None, False)

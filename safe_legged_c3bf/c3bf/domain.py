@@ -20,6 +20,7 @@ from .errors import InvalidInputError
 
 __all__ = [
     "MAX_DERIVED", "MAX_MAGNITUDE", "REF_RATIO_MAX", "bad_entry", "checked", "checked_scalar",
+    "far_reference_error",
 ]
 
 MAX_MAGNITUDE = 1e9
@@ -79,6 +80,20 @@ def bad_entry(name: str, values, limit: float = MAX_MAGNITUDE, positive: bool = 
     else:
         why = "must be > 0"
     return f"{name}{where} = {v!r} {why}"
+
+
+def far_reference_error(u_ref: np.ndarray, scale: float) -> InvalidInputError:
+    """The error for a far reference (see ``REF_RATIO_MAX``) whose clip is not the optimum.
+
+    ``scale``: the input scale ``1 + max |finite limit|``; the message names the largest entry.
+    """
+    i = int(np.argmax(np.abs(u_ref)))
+    return InvalidInputError(
+        f"u_ref[{i}] = {float(u_ref[i])!r} is beyond {REF_RATIO_MAX:.0e} x the input scale "
+        f"{scale:g} (1 + largest finite limit) and the optimum is not its clip to the "
+        "limits: rounding would dominate the QP's answer; bring the reference within the "
+        "bound"
+    )
 
 
 def checked(name: str, value, limit: float = MAX_MAGNITUDE, positive: bool = False) -> np.ndarray:

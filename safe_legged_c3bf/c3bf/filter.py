@@ -42,81 +42,39 @@ Inputs outside the numeric domain (NaN/Inf, ``|x| > 1e9``, wrong shapes; see ``d
 raise :class:`~.errors.InvalidInputError` naming the entry, before any work. A reference
 beyond ``domain.REF_RATIO_MAX`` x the input scale is answered only where the answer is exact
 (its clip), else refused the same way.
+
+This module holds the policy (which step answers, statuses, messages); the parts live in
+``filter_inputs`` (validation), ``rows`` (barrier terms, unit-norm rows), ``closed_form``
+(step 2), ``active_set`` (step 3), ``osqp_qp`` (steps 4-5), ``inside`` (step 6) and
+``filter_outputs`` (the :class:`~.result.FilterResult`).
 """
 
 from __future__ import annotations
 
 import math
 import time
-from operator import ge, le, mul, or_
-from typing import Literal, NamedTuple
+from operator import le
+from typing import Literal
 
 import numpy as np
 import osqp
 
 from .active_set import solve_box_qp
 from .barrier import DEFAULT_V_EPS
-from .closed_form import cbf_closed_form
-from .domain import REF_RATIO_MAX, checked_scalar
+from .closed_form import cbf_closed_form, one_obstacle
+from .domain import REF_RATIO_MAX, checked_scalar, far_reference_error
 from .errors import InvalidInputError
 from .filter_inputs import FLOAT_MAX, Bounds, check_bounds, check_weights, check_yaw, vector
+from .filter_outputs import failsafe_result, make_result
 from .geometry import Obstacles
-from .inside import INSIDE_REL_CLEARANCE, escape_input, radial_terms, signed_h
-from .lie import _barrier_terms, barrier_terms_scalar
+from .inside import INSIDE_REL_CLEARANCE, escape_input, inside_rows
 from .models import PointKinematics, RobotModel
-from .osqp_qp import INFEASIBLE, OSQP_DEFAULTS, OSQP_INF, RETRYABLE, HardQP, RelaxedQP
+from .osqp_qp import INFEASIBLE, OSQP_INF, RETRYABLE, QPSolvers
 from .result import FilterResult, FilterStatus
+from .rows import FEAS_TOL, ROUND_TOL, Rows, Terms, obstacle_terms, scale_rows, screen_rows
 from .solver_status import describe_osqp_status
 
 __all__ = ["SafetyFilter", "cbf_closed_form"]
-
-_ROW_ZERO = 1e-12  # ||Lg h|| below this: the constraint does not depend on u
-_FEAS_TOL = 1e-9  # accepted violation of a unit-norm row [input units], times (1 + |u|)
-_ROUND_TOL = 1e-11  # plus this times ||u_ref|| (rounding of u - u_ref, see active_set)
-_ACTIVE_TOL = 1e-7  # scaled constraint value below which a row counts as binding
-_SCALAR_TERMS_MAX = 16  # obstacles up to which barrier terms are computed per obstacle
-
-class _Terms(NamedTuple):
-    """The parts of :class:`~.lie.BarrierTerms` the QP needs (``(n,)``, ``lg_h`` ``(n, m)``)."""
-
-    h: np.ndarray
-    lf_h: np.ndarray
-    lg_h: np.ndarray
-    clearance: np.ndarray  # ||p_rel||^2 - r^2 [m^2] for the radius r the row uses
-    gap: np.ndarray  # ||p_rel|| - r_true [m] (FilterResult.clearance)
-
-
-def _gap(clearance, radius, obs: Obstacles) -> np.ndarray:
-    """Signed distance [m] from the body point to each true inflated circle (< 0 inside).
-
-    NaN where rounding makes ``||p||^2`` negative (body point at a centre): such a row is
-    inside its circle, and ``_inside`` recomputes its gap with a clamp.
-    """
-    return np.sqrt(clearance + radius * radius) - obs.radius
-
-
-class _Rows(NamedTuple):
-    """The constraint rows ``G u + c0 >= 0`` and their unit-norm form ``Gn u >= bn``."""
-
-    G: np.ndarray
-    c0: np.ndarray
-    Gn: np.ndarray
-    bn: np.ndarray
-    norms: np.ndarray  # ||G_i||
-    dead: np.ndarray  # rows that u cannot influence (kept unscaled)
-    any_dead: bool
-    hopeless: bool  # a dead row is violated: no input can fix it
-
-
-def _scale_rows(G, c0) -> _Rows:
-    """Scale rows to unit norm (same feasible set, better conditioning)."""
-    norms = np.sqrt(np.einsum("ij,ij->i", G, G))
-    dead = norms <= _ROW_ZERO
-    any_dead = bool(dead.any())
-    scale = np.where(dead, 1.0, norms) if any_dead else norms
-    hopeless = any_dead and bool((dead & (c0 < 0.0)).any())
-    return _Rows(G, c0, G / scale[:, None], -c0 / scale, norms, dead, any_dead, hopeless)
-
 
 class SafetyFilter:
     """Collision-cone CBF safety filter (C3BF-QP) for one robot model.
@@ -192,20 +150,10 @@ class SafetyFilter:
             raise InvalidInputError("method must be 'auto' or 'qp'")
         self.method = method
         relax_penalty = checked_scalar("relax_penalty", relax_penalty, 0.0, low_open=True)
-        self._rho = relax_penalty * float(np.linalg.eigvalsh(w).max())
         self.brake_gain = checked_scalar("brake_gain", brake_gain, 0.0)
         self.escape_accel = checked_scalar("escape_accel", escape_accel, 0.0)
         self.exit_speed = checked_scalar("exit_speed", exit_speed, 0.0)
-        self._osqp_settings = {**OSQP_DEFAULTS, **(osqp_settings or {})}
-        # The relaxed QP is a fallback whose answer is a compromise anyway: looser tolerances
-        # (still polished) keep its worst-case iteration count low.
-        self._osqp_relaxed = {
-            **self._osqp_settings,
-            "eps_abs": max(self._osqp_settings["eps_abs"], 1e-5),
-            "eps_rel": max(self._osqp_settings["eps_rel"], 1e-5),
-        }
-        self._hard: dict[int, HardQP] = {}
-        self._relaxed: dict[int, RelaxedQP] = {}
+        self._qp = QPSolvers(w, relax_penalty, osqp_settings)
         self._warm: tuple = (None, ())  # (row layout, active rows) of the last active-set solve
 
     # ------------------------------------------------------------------ public API
@@ -257,7 +205,10 @@ class SafetyFilter:
         try:
             kin = model.point_kinematics_tuple(xl, yaw)
             if len(obstacles) == 1 and not far:
-                res = self._filter_one(kin, u0, ul, obstacles, t0)
+                res = one_obstacle(
+                    kin, ul, obstacles, self.margin, self.gamma, self.v_eps, self._cur,
+                    self.method, self._w_inv_l, t0,
+                )
                 if res is not None:
                     return res
             with np.errstate(all="ignore"):  # overflow etc. is detected and handled explicitly
@@ -276,93 +227,19 @@ class SafetyFilter:
 
     def reset(self) -> None:
         """Drop the cached OSQP solvers and active set (warm starts restart from scratch)."""
-        self._hard.clear()
-        self._relaxed.clear()
+        self._qp.clear()
         self._warm = (None, ())
 
     # ------------------------------------------------------------------ internals
-    def _filter_one(self, kin, u0, ul, obs: Obstacles, t0) -> FilterResult | None:
-        """Scalar fast path for one obstacle: INACTIVE or exact closed form, else None."""
-        (c,), (cv,), (r0,), (pl,) = obs.as_lists
-        r = r0 + self.margin
-        h, lf, lg, clearance = barrier_terms_scalar(
-            kin, c[0], c[1], cv[0], cv[1], r, pl, self.v_eps
-        )
-        if not clearance > INSIDE_REL_CLEARANCE * r * r:
-            return None  # inside the margin band / emergency (or NaN): general path
-        c0 = lf + self.gamma * h
-        psi = c0 + sum(map(mul, lg, ul))
-        if not math.isfinite(psi):
-            return None  # overflow: the general path fails safe
-        lo_b, hi_b = self._cur.lo_l, self._cur.hi_l
-        in_box = all(map(le, lo_b, ul)) and all(map(le, ul, hi_b))
-        if in_box and psi >= 0.0:
-            status, u, ulist, solver = FilterStatus.INACTIVE, np.array(ul), ul, "none"
-        elif self.method == "auto" and psi < 0.0:
-            wa = [sum(map(mul, row, lg)) for row in self._w_inv_l]
-            den = sum(map(mul, lg, wa))
-            if not den > _ROW_ZERO**2 * (1.0 + abs(psi)):
-                return None
-            k = psi / den
-            ulist = [v - k * w for v, w in zip(ul, wa, strict=True)]
-            if not (all(map(le, lo_b, ulist)) and all(map(le, ulist, hi_b))):
-                return None
-            status, u, solver = FilterStatus.ACTIVE, np.array(ulist), "closed_form"
-        else:
-            return None
-        con = c0 + sum(map(mul, lg, ulist))
-        active = status is FilterStatus.ACTIVE and con * con <= _ACTIVE_TOL**2 * max(
-            sum(map(mul, lg, lg)), 1.0
-        )
-        vals = np.array([h, con, 0.0 if con >= 0.0 else -con, math.sqrt(clearance + r * r) - r0])
-        flags = np.array([active, *map(or_, map(le, ulist, lo_b), map(ge, ulist, hi_b))])
-        return FilterResult(
-            u_safe=u,
-            status=status,
-            h=vals[0:1],
-            constraint=vals[1:2],
-            slack=vals[2:3],
-            active=flags[0:1],
-            bounds_active=flags[1:],
-            solver=solver,
-            solve_time=time.perf_counter() - t0,
-            clearance=vals[3:4],
-        )
-
-    def _terms(self, kin, obs: Obstacles, radius) -> _Terms:
-        """h, Lf h, Lg h and clearances of every obstacle (``kin`` as tuples).
-
-        Up to ``_SCALAR_TERMS_MAX`` obstacles the scalar formulas per obstacle
-        (``barrier_terms_scalar``, tested against ``barrier_terms``) cost fewer operations
-        than the vectorised ones; beyond that numpy is faster.
-        """
-        n = len(obs)
-        if 0 < n <= _SCALAR_TERMS_MAX:
-            v_eps, fn = self.v_eps, barrier_terms_scalar
-            rows = [
-                fn(kin, c[0], c[1], v[0], v[1], r, pl, v_eps)
-                for c, v, r, pl in zip(
-                    obs.center.tolist(), obs.velocity.tolist(), radius.tolist(),
-                    obs.plane.tolist(), strict=True,
-                )
-            ]
-            h, lf, lg, clearance = zip(*rows, strict=True)
-            cl = np.array(clearance)
-            return _Terms(np.array(h), np.array(lf), np.array(lg), cl, _gap(cl, radius, obs))
-        kin = PointKinematics(*(np.array(k, dtype=float) for k in kin))
-        t = _barrier_terms(kin, obs.center, obs.velocity, radius, obs.plane, self.v_eps)
-        lg = t.lg_h.reshape(n, self.model.n_u)
-        return _Terms(t.h, t.lf_h, lg, t.clearance, _gap(t.clearance, radius, obs))
-
     def _filter(self, x, u0, ul, kin, obs: Obstacles, yaw, t0) -> FilterResult:
         """Barrier terms of every obstacle, then the QP (or the inside-a-circle handling)."""
         radius = obs.radius + self.margin
-        terms = self._terms(kin, obs, radius)
+        terms = obstacle_terms(kin, obs, radius, self.v_eps, self.model.n_u)
         inside = terms.clearance < INSIDE_REL_CLEARANCE * radius * radius
         if self.margin > 0.0 and inside.any():
             # Inside r + margin: use the exact barrier of the true radius r for those rows.
             radius = np.where(inside, obs.radius, radius)
-            terms = self._terms(kin, obs, radius)
+            terms = obstacle_terms(kin, obs, radius, self.v_eps, self.model.n_u)
             inside = terms.clearance < INSIDE_REL_CLEARANCE * radius * radius
         G = terms.lg_h
         c0 = terms.lf_h + self.gamma * terms.h  # constraint: G u + c0 >= 0
@@ -372,25 +249,25 @@ class SafetyFilter:
             return self._inside(x, u0, ul, yaw, kin, obs, radius, terms, inside, t0)
         return self._solve(x, u0, ul, yaw, terms, G, c0, t0)
 
-    def _solve(self, x, u0, ul, yaw, terms: _Terms, G, c0, t0) -> FilterResult:
+    def _solve(self, x, u0, ul, yaw, terms: Terms, G, c0, t0) -> FilterResult:
         """The QP for the rows ``G u + c0 >= 0`` (module docstring, steps 1-5)."""
         cur = self._cur
         in_box = all(map(le, cur.lo_l, ul)) and all(map(le, ul, cur.hi_l))
         if in_box and (G @ u0 + c0 >= 0.0).all():
-            return self._result(u0.copy(), FilterStatus.INACTIVE, terms, G, c0, "none", t0)
+            return make_result(u0.copy(), FilterStatus.INACTIVE, terms, G, c0, cur, "none", t0)
         if self._far:
             return self._far_reference(u0, terms, G, c0, t0)
-        rows = _scale_rows(G, c0)
+        rows = scale_rows(G, c0)
         infeasible = rows.hopeless
         if not infeasible and self.method == "auto":
             u, infeasible = self._active_set(u0, rows)
             if u is not None:
-                return self._result(
-                    u, FilterStatus.ACTIVE, terms, G, c0, "active_set", t0, norms=rows.norms
+                return make_result(
+                    u, FilterStatus.ACTIVE, terms, G, c0, cur, "active_set", t0, norms=rows.norms
                 )
         return self._solve_osqp(x, u0, yaw, terms, rows, infeasible, t0)
 
-    def _active_set(self, u0, rows: _Rows):
+    def _active_set(self, u0, rows: Rows):
         """Exact dual active-set solve: ``(u or None, infeasible)``; ``u`` verified."""
         cur = self._cur
         any_dead = rows.any_dead
@@ -409,27 +286,22 @@ class SafetyFilter:
                 return u, False
         return None, sol.infeasible  # infeasible: a Farkas certificate
 
-    def _solve_osqp(self, x, u0, yaw, terms: _Terms, rows: _Rows, infeasible, t0):
+    def _solve_osqp(self, x, u0, yaw, terms: Terms, rows: Rows, infeasible, t0):
         """OSQP on the rows that can bind inside the box; the relaxed QP if infeasible."""
-        lo_b, hi_b = self._cur.lo, self._cur.hi
-        Gn, bn = rows.Gn, rows.bn
-        G, c0 = rows.G, rows.c0
-        with np.errstate(invalid="ignore"):
-            row_min = np.where(Gn > 0, Gn * lo_b, np.where(Gn < 0, Gn * hi_b, 0.0)).sum(axis=1)
-            row_max = np.where(Gn > 0, Gn * hi_b, np.where(Gn < 0, Gn * lo_b, 0.0)).sum(axis=1)
-        redundant = rows.dead | (bn <= row_min)
-        lo_rows = np.where(redundant, -OSQP_INF, bn)
-        infeasible = infeasible or bool((bn > row_max + _FEAS_TOL)[~redundant].any())
+        cur = self._cur
+        lo_b, hi_b = cur.lo, cur.hi
+        Gn, G, c0 = rows.Gn, rows.G, rows.c0
+        lo_rows, infeasible = screen_rows(rows, lo_b, hi_b, infeasible)
         q = -(self.weights @ u0)
-        n = len(bn)
+        n = len(rows.bn)
         msg = "constraints infeasible within input limits"
         if not infeasible:
-            u, ok, st = self._solve_hard(n, Gn, lo_rows, q)
+            u, ok, st = self._qp.solve_hard(n, Gn, lo_rows, lo_b, hi_b, q, self._verify)
             if ok:
                 msg = "" if st == osqp.SolverStatus.OSQP_SOLVED else (
                     f"hard QP {describe_osqp_status(st)}: feasible, optimality not certified"
                 )
-                return self._result(u, FilterStatus.ACTIVE, terms, G, c0, "osqp", t0, msg)
+                return make_result(u, FilterStatus.ACTIVE, terms, G, c0, cur, "osqp", t0, msg)
             if st not in INFEASIBLE:
                 words = describe_osqp_status(st)
                 if st not in RETRYABLE:
@@ -440,35 +312,28 @@ class SafetyFilter:
                     u, infeasible = self._active_set(u0, rows)
                     if u is not None:
                         msg = f"hard QP {words}: answered by the exact active-set method"
-                        return self._result(
-                            u, FilterStatus.ACTIVE, terms, G, c0, "active_set", t0, msg
+                        return make_result(
+                            u, FilterStatus.ACTIVE, terms, G, c0, cur, "active_set", t0, msg
                         )
                 if not infeasible:
                     msg = f"hard QP not solved to tolerance ({words}): relaxed QP used"
-        u, st = self._solve_relaxed(n, Gn, lo_rows, q)
+        u, st = self._qp.solve_relaxed(n, Gn, lo_rows, lo_b, hi_b, q)
         if u is None:
             return self._failsafe(
                 x, yaw, n, t0, f"relaxed QP failed: {describe_osqp_status(st)}", terms, G, c0
             )
-        return self._result(u, FilterStatus.RELAXED, terms, G, c0, "osqp", t0, msg)
+        return make_result(u, FilterStatus.RELAXED, terms, G, c0, cur, "osqp", t0, msg)
 
-    def _inside(self, x, u0, ul, yaw, kin, obs: Obstacles, radius, terms: _Terms, inside, t0):
+    def _inside(self, x, u0, ul, yaw, kin, obs: Obstacles, radius, terms: Terms, inside, t0):
         """Body point inside >= 1 inflated circle: EMERGENCY (see ``inside``).
 
         Leaving every such circle: the QP with their radial no-deeper rows in place of their
         cone rows. Otherwise: brake and back out of them (the escape input).
         """
         kin = PointKinematics(*(np.array(k, dtype=float) for k in kin))
-        idx = np.flatnonzero(inside)
-        rad = radial_terms(kin, obs.center[idx], obs.velocity[idx], obs.plane[idx])
-        G = terms.lg_h.copy()
-        c0 = terms.lf_h + self.gamma * terms.h
-        G[idx] = rad.lg
-        c0[idx] = rad.lf + self.gamma * (rad.speed - self.exit_speed)
-        h, gap = terms.h.copy(), terms.gap.copy()
-        h[idx] = signed_h(h[idx], terms.clearance[idx], radius[idx], self.gamma)
-        gap[idx] = np.sqrt((rad.p_rel * rad.p_rel).sum(-1)) - obs.radius[idx]
-        terms = terms._replace(h=h, gap=gap)
+        idx, rad, terms, G, c0 = inside_rows(
+            kin, obs, radius, terms, inside, self.gamma, self.exit_speed
+        )
         names = idx.tolist()
         if (rad.speed > 0.0).all():
             res = self._solve(x, u0, ul, yaw, terms, G, c0, t0)
@@ -489,11 +354,11 @@ class SafetyFilter:
             u = self._brake(x, yaw)
         u = np.clip(u, self._cur.lo, self._cur.hi)
         msg = f"inside the inflated radius of obstacle(s) {names}, not leaving: brake, back out"
-        res = self._result(u, FilterStatus.EMERGENCY, terms, G, c0, "none", t0, msg)
+        res = make_result(u, FilterStatus.EMERGENCY, terms, G, c0, self._cur, "none", t0, msg)
         res.active = inside.copy()
         return res
 
-    def _far_reference(self, u0, terms: _Terms, G, c0, t0) -> FilterResult:
+    def _far_reference(self, u0, terms: Terms, G, c0, t0) -> FilterResult:
         """Far ``u_ref`` (beyond ``REF_RATIO_MAX`` x the input scale), not itself admissible.
 
         Its clip when that is the exact optimum (diagonal ``W``, every barrier row holds),
@@ -506,112 +371,23 @@ class SafetyFilter:
                 f"u_ref beyond {REF_RATIO_MAX:.0e} x the input scale: clipped to the limits "
                 "(exact: the clip satisfies every barrier constraint)"
             )
-            return self._result(uc, FilterStatus.ACTIVE, terms, G, c0, "clip", t0, msg)
-        i = int(np.argmax(np.abs(u0)))
-        raise InvalidInputError(
-            f"u_ref[{i}] = {float(u0[i])!r} is beyond {REF_RATIO_MAX:.0e} x the input scale "
-            f"{cur.scale:g} (1 + largest finite limit) and the optimum is not its clip to the "
-            "limits: rounding would dominate the QP's answer; bring the reference within the "
-            "bound"
-        )
+            return make_result(uc, FilterStatus.ACTIVE, terms, G, c0, cur, "clip", t0, msg)
+        raise far_reference_error(u0, cur.scale)
 
     def _verify(self, u, Gn, lo_rows) -> bool:
         """Every (unit-norm) row holds at ``u`` within the rounding of the numbers involved."""
         size = math.hypot(*u.tolist())  # (m <= 3: cheaper than numpy reductions)
         if not size <= FLOAT_MAX:  # NaN or inf
             return False
-        tol = _FEAS_TOL * (1.0 + size) + _ROUND_TOL * self._umax
+        tol = FEAS_TOL * (1.0 + size) + ROUND_TOL * self._umax
         return bool((Gn @ u >= lo_rows - tol).all())
 
-    def _solve_hard(self, n, Gn, lo_rows, q):
-        qp = self._hard.get(n)
-        if qp is None:
-            qp = self._hard[n] = HardQP(n, self.model.n_u, self.weights, self._osqp_settings)
-        u, st = qp.solve(Gn, lo_rows, self._cur.lo, self._cur.hi, q)
-        solved = (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE)
-        if st in solved or st == osqp.SolverStatus.OSQP_MAX_ITER_REACHED:
-            u = np.clip(u, self._cur.lo, self._cur.hi)
-            if st == osqp.SolverStatus.OSQP_SOLVED and self._verify(u, Gn, lo_rows):
-                return u, True, st
-            # Not certified (an iterate at the iteration limit can be feasible yet far from
-            # optimal) or not verified: tighten and re-solve, warm started from that iterate.
-            qp.tighten(1e-3)
-            try:
-                u2, st = qp.solve(Gn, lo_rows, self._cur.lo, self._cur.hi, q)
-            finally:
-                qp.restore()
-            u2 = np.clip(u2, self._cur.lo, self._cur.hi)
-            if st in solved and self._verify(u2, Gn, lo_rows):
-                return u2, True, st
-        return None, False, st
-
-    def _solve_relaxed(self, n, Gn, lo_rows, q):
-        qp = self._relaxed.get(n)
-        if qp is None:
-            qp = self._relaxed[n] = RelaxedQP(
-                n, self.model.n_u, self.weights, self._rho, self._osqp_relaxed
-            )
-        u, st = qp.solve(Gn, lo_rows, self._cur.lo, self._cur.hi, q)
-        ok = (
-            osqp.SolverStatus.OSQP_SOLVED,
-            osqp.SolverStatus.OSQP_SOLVED_INACCURATE,
-            osqp.SolverStatus.OSQP_MAX_ITER_REACHED,
-        )
-        if st not in ok or not np.isfinite(u).all():
-            return None, st
-        return np.clip(u, self._cur.lo, self._cur.hi), st
-
-    def _result(
-        self, u, status, terms: _Terms, G, c0, solver, t0, message="", norms=None
-    ):
-        if not np.isfinite(u).all():
-            raise FloatingPointError("non-finite filtered input")  # -> FAILSAFE
-        con = c0 + G @ u
-        if status is FilterStatus.INACTIVE:
-            active = np.zeros(con.shape, dtype=bool)
-        else:
-            if norms is None:
-                norms = np.sqrt(np.einsum("ij,ij->i", G, G))
-            active = con <= _ACTIVE_TOL * np.maximum(norms, 1.0)
-        bounds = (u <= self._cur.lo) | (u >= self._cur.hi)
-        return FilterResult(
-            u_safe=u,
-            status=status,
-            h=terms.h,
-            constraint=con,
-            slack=np.maximum(-con, 0.0),
-            active=active,
-            bounds_active=bounds,
-            solver=solver,
-            solve_time=time.perf_counter() - t0,
-            message=message,
-            clearance=terms.gap,
-        )
-
     def _brake(self, x, yaw) -> np.ndarray:
+        """The model's brake input, non-finite entries 0, clipped to the call's limits."""
         u = np.asarray(self.model.brake_input(x, yaw, self.brake_gain), dtype=float)
         u = np.where(np.isfinite(u), u, 0.0)
         return np.clip(u, self._cur.lo, self._cur.hi)
 
     def _failsafe(self, x, yaw, n, t0, message, terms=None, G=None, c0=None) -> FilterResult:
-        u = self._brake(x, yaw)
-        u = np.where(np.isfinite(u), u, np.clip(0.0, self._cur.lo, self._cur.hi))
-        if terms is None or G is None or c0 is None:
-            h = con = gap = np.zeros(n)
-        else:
-            h = np.nan_to_num(terms.h)
-            con = np.nan_to_num(c0 + G @ u)
-            gap = np.nan_to_num(terms.gap)
-        return FilterResult(
-            u_safe=u,
-            status=FilterStatus.FAILSAFE,
-            h=h,
-            constraint=con,
-            slack=np.maximum(-con, 0.0),
-            active=np.zeros(n, dtype=bool),
-            bounds_active=(u <= self._cur.lo) | (u >= self._cur.hi),
-            solver="none",
-            solve_time=time.perf_counter() - t0,
-            message=message,
-            clearance=gap,
-        )
+        """FAILSAFE: the brake input; the rows' numbers when known (``failsafe_result``)."""
+        return failsafe_result(self._brake(x, yaw), n, self._cur, t0, message, terms, G, c0)

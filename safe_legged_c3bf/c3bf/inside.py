@@ -48,8 +48,17 @@ import numpy as np
 
 from .lie import PLANE_AXES
 from .models import PointKinematics
+from .rows import Terms
 
-__all__ = ["INSIDE_REL_CLEARANCE", "RadialTerms", "escape_input", "radial_terms", "signed_h"]
+__all__ = [
+    "INSIDE_REL_CLEARANCE",
+    "InsideRows",
+    "RadialTerms",
+    "escape_input",
+    "inside_rows",
+    "radial_terms",
+    "signed_h",
+]
 
 INSIDE_REL_CLEARANCE = 1e-9
 """A body point is inside (or numerically on) a circle when ``||p||^2 - r^2 < 1e-9 r^2``."""
@@ -102,6 +111,48 @@ def signed_h(h, clearance, radius, gamma: float):
     """
     r2 = np.asarray(radius, dtype=float) ** 2
     return np.minimum(h, gamma * (np.asarray(clearance) - INSIDE_REL_CLEARANCE * r2))
+
+
+class InsideRows(NamedTuple):
+    """The filter's rows with radial rows for the circles the body point is inside."""
+
+    idx: np.ndarray
+    """``(k,)`` indices of those obstacles."""
+    rad: RadialTerms
+    """Their radial terms."""
+    terms: Terms
+    """Every obstacle's terms; for those, ``h`` by :func:`signed_h` and the true gap."""
+    G: np.ndarray
+    """``(n, m)`` rows ``G u + c0 >= 0``: ``Lg b`` for those obstacles, else ``Lg h``."""
+    c0: np.ndarray
+    """``(n,)`` ``Lf b + gamma (b - exit_speed)`` for those obstacles, else ``Lf h + gamma h``."""
+
+
+def inside_rows(
+    kin: PointKinematics, obs, radius, terms: Terms, inside, gamma: float, exit_speed: float
+) -> InsideRows:
+    """Replace the cone rows of the obstacles flagged ``inside`` by their radial rows.
+
+    Args:
+        kin: Body-point kinematics (unbatched arrays).
+        obs: The :class:`~.geometry.Obstacles`.
+        radius: ``(n,)`` the radius each row uses [m].
+        terms: The barrier terms of every obstacle (``rows.obstacle_terms``).
+        inside: ``(n,)`` bool, the body point is inside that circle.
+        gamma: The filter's class-K gain [1/s].
+        exit_speed: Radial speed [m/s] kept (at least) while leaving.
+
+    """
+    idx = np.flatnonzero(inside)
+    rad = radial_terms(kin, obs.center[idx], obs.velocity[idx], obs.plane[idx])
+    G = terms.lg_h.copy()
+    c0 = terms.lf_h + gamma * terms.h
+    G[idx] = rad.lg
+    c0[idx] = rad.lf + gamma * (rad.speed - exit_speed)
+    h, gap = terms.h.copy(), terms.gap.copy()
+    h[idx] = signed_h(h[idx], terms.clearance[idx], radius[idx], gamma)
+    gap[idx] = np.sqrt((rad.p_rel * rad.p_rel).sum(-1)) - obs.radius[idx]
+    return InsideRows(idx, rad, terms._replace(h=h, gap=gap), G, c0)
 
 
 def escape_input(

@@ -4,6 +4,7 @@
 scaled to unit norm). ``RelaxedQP``: the same with one non-negative slack per row and a
 heavy penalty on it. Both keep a fixed sparsity pattern (explicit zeros are kept), so each
 call only updates ``q``, ``l``, ``u`` and ``Ax`` and warm starts from the last solution.
+``QPSolvers``: one of each per row count, and how the filter solves and checks them.
 """
 
 from __future__ import annotations
@@ -12,7 +13,15 @@ import numpy as np
 import osqp
 import scipy.sparse as sp
 
-__all__ = ["INFEASIBLE", "OSQP_DEFAULTS", "OSQP_INF", "RETRYABLE", "HardQP", "RelaxedQP"]
+__all__ = [
+    "INFEASIBLE",
+    "OSQP_DEFAULTS",
+    "OSQP_INF",
+    "RETRYABLE",
+    "HardQP",
+    "QPSolvers",
+    "RelaxedQP",
+]
 
 OSQP_INF = 1e30
 """OSQP's infinity (a bound beyond it is no bound)."""
@@ -26,6 +35,7 @@ RETRYABLE = (
     osqp.SolverStatus.OSQP_SOLVED_INACCURATE,
     osqp.SolverStatus.OSQP_MAX_ITER_REACHED,
 )
+_SOLVED = (osqp.SolverStatus.OSQP_SOLVED, osqp.SolverStatus.OSQP_SOLVED_INACCURATE)
 
 OSQP_DEFAULTS = {
     "verbose": False,
@@ -130,3 +140,72 @@ class RelaxedQP:
         self.solver.update(q=self.q, l=self.l, u=self.u, Ax=self.ax)
         res = self.solver.solve(raise_error=False)
         return res.x[:m].copy(), int(res.info.status_val)
+
+
+class QPSolvers:
+    """The filter's hard and relaxed QPs, one of each per row count ``n``, kept between calls.
+
+    Args:
+        w: ``(m, m)`` weight ``W`` (validated).
+        relax_penalty: Slack penalty of the relaxed QP relative to the largest eigenvalue of
+            ``W`` (validated, > 0).
+        overrides: Overrides of ``OSQP_DEFAULTS`` (None: none).
+
+    """
+
+    def __init__(self, w: np.ndarray, relax_penalty: float, overrides: dict | None):
+        self.w = w
+        self.m = w.shape[0]
+        self.rho = relax_penalty * float(np.linalg.eigvalsh(w).max())
+        self.settings = {**OSQP_DEFAULTS, **(overrides or {})}
+        # The relaxed QP is a fallback whose answer is a compromise anyway: looser tolerances
+        # (still polished) keep its worst-case iteration count low.
+        self.relaxed_settings = {
+            **self.settings,
+            "eps_abs": max(self.settings["eps_abs"], 1e-5),
+            "eps_rel": max(self.settings["eps_rel"], 1e-5),
+        }
+        self.hard: dict[int, HardQP] = {}
+        self.relaxed: dict[int, RelaxedQP] = {}
+
+    def clear(self) -> None:
+        """Drop every solver (the next solves set up fresh ones, no warm start)."""
+        self.hard.clear()
+        self.relaxed.clear()
+
+    def solve_hard(self, n, Gn, lo_rows, lo, hi, q, verify):
+        """The hard QP with ``n`` rows: ``(u, True, status)``, else ``(None, False, status)``.
+
+        ``u`` is clipped to ``[lo, hi]`` and accepted when OSQP reports solved and
+        ``verify(u, Gn, lo_rows)`` holds; otherwise it is re-solved once with tighter
+        tolerances, warm started from that iterate.
+        """
+        qp = self.hard.get(n)
+        if qp is None:
+            qp = self.hard[n] = HardQP(n, self.m, self.w, self.settings)
+        u, st = qp.solve(Gn, lo_rows, lo, hi, q)
+        if st in _SOLVED or st == osqp.SolverStatus.OSQP_MAX_ITER_REACHED:
+            u = np.clip(u, lo, hi)
+            if st == osqp.SolverStatus.OSQP_SOLVED and verify(u, Gn, lo_rows):
+                return u, True, st
+            # Not certified (an iterate at the iteration limit can be feasible yet far from
+            # optimal) or not verified: tighten and re-solve, warm started from that iterate.
+            qp.tighten(1e-3)
+            try:
+                u2, st = qp.solve(Gn, lo_rows, lo, hi, q)
+            finally:
+                qp.restore()
+            u2 = np.clip(u2, lo, hi)
+            if st in _SOLVED and verify(u2, Gn, lo_rows):
+                return u2, True, st
+        return None, False, st
+
+    def solve_relaxed(self, n, Gn, lo_rows, lo, hi, q):
+        """The relaxed QP with ``n`` rows: ``(u, status)``, ``u`` clipped; ``u`` None if failed."""
+        qp = self.relaxed.get(n)
+        if qp is None:
+            qp = self.relaxed[n] = RelaxedQP(n, self.m, self.w, self.rho, self.relaxed_settings)
+        u, st = qp.solve(Gn, lo_rows, lo, hi, q)
+        if st not in RETRYABLE or not np.isfinite(u).all():
+            return None, st
+        return np.clip(u, lo, hi), st
