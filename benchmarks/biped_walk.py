@@ -24,9 +24,9 @@ sys.path.insert(
 
 from biped_harness import BipedSim, constant, random_piecewise  # noqa: E402
 
-from safe_legged_c3bf.biped.controller import BipedZmpController  # noqa: E402
-from safe_legged_c3bf.biped.params import BipedParams  # noqa: E402
-from safe_legged_c3bf.gait_controller import VelocityCommand  # noqa: E402
+from safe_legged_c3bf.gait.biped.controller import BipedZmpController  # noqa: E402
+from safe_legged_c3bf.gait.biped.params import BipedParams  # noqa: E402
+from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand  # noqa: E402
 
 START = 1.0  # s of standing before the command starts
 SETTLE = 3.0  # s after the start excluded from the speed averages

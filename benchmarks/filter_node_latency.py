@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from safe_legged_c3bf.ros_domain import isolate_environment
+from safe_legged_c3bf.run.ros_domain import isolate_environment
 
 _ENV, _LEASE = isolate_environment()
 
@@ -29,7 +29,7 @@ from nav_msgs.msg import Odometry  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rosgraph_msgs.msg import Clock  # noqa: E402
 
-from safe_legged_c3bf import topics  # noqa: E402
+from safe_legged_c3bf.interfaces import topics  # noqa: E402
 from safe_legged_c3bf.nodes import ros_common  # noqa: E402
 from safe_legged_c3bf.nodes.safety_filter_node import SafetyFilterNode  # noqa: E402
 from safe_legged_c3bf_msgs.msg import Obstacle, ObstacleArray  # noqa: E402

@@ -34,16 +34,16 @@ sys.path.insert(0, os.path.join(HERE, ".."))
 
 import quadruped_harness as harness  # noqa: E402
 
-from safe_legged_c3bf.quadruped.controller import QuadrupedMpcController  # noqa: E402
-from safe_legged_c3bf.quadruped.params import QuadrupedParams  # noqa: E402
+from safe_legged_c3bf.gait.quadruped.controller import QuadrupedMpcController  # noqa: E402
+from safe_legged_c3bf.gait.quadruped.params import QuadrupedParams  # noqa: E402
 
 LIMITS = {"vx": 0.10, "vy": 0.15, "yaw_rate": 0.15}
 
 
 def physics_only_rate(seconds: float = 2.0) -> float:
     """Physics steps per wall second with the robot standing under constant joint PD."""
-    from safe_legged_c3bf.joint_command import JointCommand
-    from safe_legged_c3bf.quadruped import a1_kinematics as kin
+    from safe_legged_c3bf.gait.quadruped import a1_kinematics as kin
+    from safe_legged_c3bf.interfaces.joint_command import JointCommand
 
     with harness.QuadrupedSim() as sim:
         cmd = JointCommand(sim.robot.joint_names, kin.STANDING_POSE, 0.0, 60.0, 2.0, 0.0)

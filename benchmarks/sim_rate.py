@@ -57,7 +57,7 @@ PHYSICS_THREAD = "simulator_physics"  # SimulatorNode's physics thread
 
 
 def _sim_topics():
-    from safe_legged_c3bf import topics
+    from safe_legged_c3bf.interfaces import topics
 
     return [
         topics.CLOCK, topics.ODOM, topics.IMU, topics.JOINT_STATES, topics.OBSTACLE_DETECTIONS,
@@ -73,7 +73,7 @@ def graph_process(command: str) -> None:
     """
     import rclpy
 
-    from safe_legged_c3bf import topics
+    from safe_legged_c3bf.interfaces import topics
     from safe_legged_c3bf.nodes.ros_common import qos
     from safe_legged_c3bf_msgs.msg import MotorCommand
 
@@ -216,7 +216,7 @@ def main() -> None:
     if args.graph_process:
         graph_process(args.graph_process)
         return
-    from safe_legged_c3bf.ros_domain import isolate_environment
+    from safe_legged_c3bf.run.ros_domain import isolate_environment
 
     _, lease = isolate_environment()
     print(f"load average before: {os.getloadavg()[0]:.2f} ({os.cpu_count()} cores)")

@@ -100,7 +100,7 @@ def _isolate(opts: argparse.Namespace):  # noqa: ANN202 - DomainLease | None
             raise StartupError("--domain-id must be in 0..232")
         os.environ["ROS_DOMAIN_ID"] = str(opts.domain_id)
         return None
-    from safe_legged_c3bf.ros_domain import isolate_environment
+    from safe_legged_c3bf.run.ros_domain import isolate_environment
 
     try:
         _, lease = isolate_environment()

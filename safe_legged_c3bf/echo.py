@@ -92,7 +92,7 @@ def subscription_qos(node, topic: str):  # noqa: ANN001, ANN201 - rclpy types
     """QoS compatible with every publisher of ``topic`` (contract depth when known)."""
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-    from safe_legged_c3bf import topics
+    from safe_legged_c3bf.interfaces import topics
 
     try:
         depth = topics.by_name(topic).depth

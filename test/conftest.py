@@ -11,7 +11,7 @@ from collections.abc import Callable
 
 import pytest
 
-from safe_legged_c3bf.ros_domain import isolate_environment
+from safe_legged_c3bf.run.ros_domain import isolate_environment
 
 # Must happen before rclpy creates any context.
 _ENV, _DOMAIN_LEASE = isolate_environment()

@@ -10,9 +10,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from safe_legged_c3bf.base_state import BaseState, yaw_to_quaternion
-from safe_legged_c3bf.filtering.obstacle_input import ObstacleInput
-from safe_legged_c3bf.gait_controller import VelocityCommand
+from safe_legged_c3bf.interfaces.base_state import BaseState, yaw_to_quaternion
+from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
+from safe_legged_c3bf.safety.obstacle_input import ObstacleInput
 
 
 @dataclass

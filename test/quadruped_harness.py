@@ -15,8 +15,8 @@ import numpy as np
 import pybullet
 import pybullet_data
 
-from safe_legged_c3bf.base_state import BaseState
-from safe_legged_c3bf.gait_controller import VelocityCommand
+from safe_legged_c3bf.interfaces.base_state import BaseState
+from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
 from safe_legged_c3bf.sim.motor_driver import MotorDriver
 from safe_legged_c3bf.sim.robots import load_robot
 

@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 from biped_harness import BipedSim, constant
 
-from safe_legged_c3bf.base_state import BaseState
-from safe_legged_c3bf.biped.controller import BipedZmpController
-from safe_legged_c3bf.biped.params import BipedParams
-from safe_legged_c3bf.gait_controller import GaitController, VelocityCommand
-from safe_legged_c3bf.joint_command import JointCommand
+from safe_legged_c3bf.gait.biped.controller import BipedZmpController
+from safe_legged_c3bf.gait.biped.params import BipedParams
+from safe_legged_c3bf.interfaces.base_state import BaseState
+from safe_legged_c3bf.interfaces.gait_controller import GaitController, VelocityCommand
+from safe_legged_c3bf.interfaces.joint_command import JointCommand
 from safe_legged_c3bf.sim.robots import robot_spec
 
 

@@ -5,15 +5,15 @@ import math
 import numpy as np
 import pytest
 
-from safe_legged_c3bf.biped.footstep_planner import (
+from safe_legged_c3bf.gait.biped.footstep_planner import (
     Footstep,
     FootstepPlanner,
     clip_to_polygon,
     convex_hull,
 )
-from safe_legged_c3bf.biped.params import BipedParams, GaitParams, StepLimits
-from safe_legged_c3bf.biped.swing_trajectory import SwingTrajectory
-from safe_legged_c3bf.rotations import wrap_angle
+from safe_legged_c3bf.gait.biped.params import BipedParams, GaitParams, StepLimits
+from safe_legged_c3bf.gait.biped.swing_trajectory import SwingTrajectory
+from safe_legged_c3bf.interfaces.rotations import wrap_angle
 
 
 @pytest.fixture()

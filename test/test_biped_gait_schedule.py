@@ -3,12 +3,12 @@
 import numpy as np
 import pytest
 
-from safe_legged_c3bf.biped.command_filter import CommandFilter
-from safe_legged_c3bf.biped.footstep_planner import Footstep, FootstepPlanner
-from safe_legged_c3bf.biped.gait_schedule import GaitMode, GaitSchedule, LegPhase
-from safe_legged_c3bf.biped.params import BipedParams
-from safe_legged_c3bf.biped.side import SIDES, Side
-from safe_legged_c3bf.gait_controller import VelocityCommand
+from safe_legged_c3bf.gait.biped.command_filter import CommandFilter
+from safe_legged_c3bf.gait.biped.footstep_planner import Footstep, FootstepPlanner
+from safe_legged_c3bf.gait.biped.gait_schedule import GaitMode, GaitSchedule, LegPhase
+from safe_legged_c3bf.gait.biped.params import BipedParams
+from safe_legged_c3bf.gait.biped.side import SIDES, Side
+from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
 
 
 def standing_feet():

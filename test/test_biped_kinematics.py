@@ -4,7 +4,7 @@ import numpy as np
 import pybullet
 import pytest
 
-from safe_legged_c3bf.biped.leg_ik import (
+from safe_legged_c3bf.gait.biped.leg_ik import (
     LegGeometry,
     leg_fk,
     leg_forward,
@@ -13,7 +13,7 @@ from safe_legged_c3bf.biped.leg_ik import (
     rpy_matrix,
     static_torques,
 )
-from safe_legged_c3bf.biped.model import JOINT_NAMES, BipedModel
+from safe_legged_c3bf.gait.biped.model import JOINT_NAMES, BipedModel
 from safe_legged_c3bf.sim.robots import load_robot, robot_spec
 
 GEOM = LegGeometry((0.0, 0.09, -0.2), 0.3, 0.3, 0.06)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from safe_legged_c3bf.biped.lipm_preview import (
+from safe_legged_c3bf.gait.biped.lipm_preview import (
     ZmpPreviewController,
     cart_table_matrices,
     preview_gains,

@@ -4,7 +4,7 @@ import os
 
 import pytest
 
-from safe_legged_c3bf.biped.params import BipedParams, CommandLimits, FeedbackGains, GaitParams
+from safe_legged_c3bf.gait.biped.params import BipedParams, CommandLimits, FeedbackGains, GaitParams
 
 CONFIG = os.path.join(os.path.dirname(os.path.dirname(__file__)), "config", "biped_controller.yaml")
 
@@ -22,8 +22,8 @@ def test_config_file_holds_the_defaults():
 
 
 def test_controller_from_config():
-    from safe_legged_c3bf.biped.controller import BipedZmpController
-    from safe_legged_c3bf.controllers import make_gait_controller
+    from safe_legged_c3bf.gait.biped.controller import BipedZmpController
+    from safe_legged_c3bf.gait.factory import make_gait_controller
 
     assert BipedZmpController.from_config().params == BipedParams()
     assert isinstance(make_gait_controller("biped"), BipedZmpController)

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from biped_harness import BipedSim, constant, random_piecewise
 
-from safe_legged_c3bf.biped.controller import BipedZmpController
-from safe_legged_c3bf.biped.params import BipedParams
-from safe_legged_c3bf.gait_controller import VelocityCommand
+from safe_legged_c3bf.gait.biped.controller import BipedZmpController
+from safe_legged_c3bf.gait.biped.params import BipedParams
+from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
 
 START = 1.0
 SETTLE = 3.0  # excluded from the averages: start delay, first weight shift, acceleration

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from safe_legged_c3bf import topics
+from safe_legged_c3bf.interfaces import topics
 
 SHORT = "test_minimal"  # config/scenarios/test_minimal.yaml: 2 s of sim time
 PLOTS = ("top_view.png", "barrier_h.png", "commands.png", "clearance.png")

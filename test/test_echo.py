@@ -13,8 +13,8 @@ from geometry_msgs.msg import Twist
 from message_samples import samples
 from sensor_msgs.msg import JointState
 
-from safe_legged_c3bf import topics
 from safe_legged_c3bf.echo import message_to_yaml
+from safe_legged_c3bf.interfaces import topics
 from safe_legged_c3bf.nodes.ros_common import qos
 
 TWIST_YAML = """linear:

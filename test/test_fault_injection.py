@@ -12,7 +12,7 @@ import pytest
 
 from safe_legged_c3bf.evaluation.fault_runner import run_fault
 from safe_legged_c3bf.evaluation.faults import FAULTS
-from safe_legged_c3bf.filtering.params import FilterParams
+from safe_legged_c3bf.safety.params import FilterParams
 
 GAIT_LAG = 0.3  # s: the gait controller's own stop after a zero command (a trot step)
 DISCOVERY = 0.5  # s: a new (second) publisher is matched and seen in the graph

@@ -15,7 +15,7 @@ from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
-from safe_legged_c3bf import topics
+from safe_legged_c3bf.interfaces import topics
 from safe_legged_c3bf.nodes import ros_common
 from safe_legged_c3bf.nodes.gait_controller_node import GaitControllerNode
 from safe_legged_c3bf.sim.robots import robot_spec

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from safe_legged_c3bf.inputs import StampGate, StampVerdict, cap_nearest
+from safe_legged_c3bf.safety import StampGate, StampVerdict, cap_nearest
 
 
 def test_stamp_gate_accepts_only_the_window_around_the_receivers_clock():

@@ -1,10 +1,11 @@
 """Every parameter of every node: in its config file, documented, and refused when invalid.
 
-Walks the five graph nodes and their parameter classes (safe_legged_c3bf/node_parameters.py):
-config/<node>.yaml holds exactly the class's defaults; each parameter has a unit and a
-description (on the node too, read-only where fixed at start-up); an invalid value (the
-example of its rule, and a value of the wrong type) makes the node's constructor raise a
-ValueError naming the parameter, and a live ``set_parameters`` fail with a reason naming it.
+Walks the five graph nodes and their parameter classes
+(safe_legged_c3bf/interfaces/node_parameters.py): config/<node>.yaml holds exactly the class's
+defaults; each parameter has a unit and a description (on the node too, read-only where fixed
+at start-up); an invalid value (the example of its rule, and a value of the wrong type) makes
+the node's constructor raise a ValueError naming the parameter, and a live ``set_parameters``
+fail with a reason naming it.
 """
 
 from __future__ import annotations
@@ -15,9 +16,9 @@ import pytest
 import yaml
 from rclpy.parameter import Parameter
 
-from safe_legged_c3bf.config import config_path
-from safe_legged_c3bf.node_parameters import NODE_PARAMETER_CLASSES, parameter_class
+from safe_legged_c3bf.interfaces.node_parameters import NODE_PARAMETER_CLASSES, parameter_class
 from safe_legged_c3bf.nodes.parameters import same_value, to_ros
+from safe_legged_c3bf.run.config import config_path
 
 #: Node name -> (module, class) of the rclpy node.
 NODES = {

@@ -7,13 +7,13 @@ import pytest
 from filter_harness import SimpleRobot
 
 from safe_legged_c3bf.c3bf import InvalidInputError, Obstacles, Plane
-from safe_legged_c3bf.filtering.obstacle_input import (
+from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
+from safe_legged_c3bf.safety.obstacle_input import (
     ObstacleInput,
     ObstacleSet,
     to_c3bf_obstacles,
 )
-from safe_legged_c3bf.filtering.safety_cycle import CycleStatus, SafetyFilterCycle
-from safe_legged_c3bf.gait_controller import VelocityCommand
+from safe_legged_c3bf.safety.safety_cycle import CycleStatus, SafetyFilterCycle
 
 
 def reference_circles(obstacles, dt, robot_y, width, height, margin, y_margin, yaw, tie):

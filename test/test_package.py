@@ -11,7 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from safe_legged_c3bf import config, topics
+from safe_legged_c3bf.interfaces import topics
+from safe_legged_c3bf.run import config
 
 REPO = Path(__file__).resolve().parent.parent
 
@@ -19,7 +20,7 @@ REPO = Path(__file__).resolve().parent.parent
 def test_imports_and_config_from_any_working_directory(tmp_path):
     code = (
         "import safe_legged_c3bf, safe_legged_c3bf_msgs.msg as m; "
-        "from safe_legged_c3bf.config import config_dir; "
+        "from safe_legged_c3bf.run.config import config_dir; "
         "d = config_dir(); print(d); "
         "assert (d / 'safety_filter.yaml').is_file(); "
         "assert any((d / 'scenarios').glob('*.yaml')); "

@@ -16,12 +16,12 @@ from nav_msgs.msg import Odometry
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 
-from safe_legged_c3bf import topics
-from safe_legged_c3bf.config import config_path
+from safe_legged_c3bf.interfaces import topics
 from safe_legged_c3bf.nodes import ros_common
 from safe_legged_c3bf.nodes.reference_planner_node import ReferencePlannerNode
 from safe_legged_c3bf.planning.params import ReferencePlannerParams
 from safe_legged_c3bf.planning.reference_planner import PlannerMode
+from safe_legged_c3bf.run.config import config_path
 
 STEP_NS = 20_000_000  # 50 Hz: one /cmd_vel per clock step
 START_NS = 1_000_000_000

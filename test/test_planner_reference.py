@@ -6,6 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from safe_legged_c3bf.interfaces.rotations import wrap_angle
 from safe_legged_c3bf.planning.reference_planner import (
     Goal,
     PlannerConfig,
@@ -15,7 +16,6 @@ from safe_legged_c3bf.planning.reference_planner import (
     VelocityCommand,
     validate_goal,
 )
-from safe_legged_c3bf.rotations import wrap_angle
 
 DT = 0.02
 EPS = 1e-12

@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from safe_legged_c3bf.gait_controller import VelocityCommand
-from safe_legged_c3bf.quadruped.command_shaping import CommandFilter, IntegralAction
-from safe_legged_c3bf.quadruped.params import QuadrupedParams
-from safe_legged_c3bf.quadruped.state_estimate import BodyEstimate
+from safe_legged_c3bf.gait.quadruped.command_shaping import CommandFilter, IntegralAction
+from safe_legged_c3bf.gait.quadruped.params import QuadrupedParams
+from safe_legged_c3bf.gait.quadruped.state_estimate import BodyEstimate
+from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
 
 
 def body(vx: float = 0.0, vy: float = 0.0, wz: float = 0.0) -> BodyEstimate:

@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 from quadruped_harness import QuadrupedSim, RunLog, constant, fallen
 
-from safe_legged_c3bf.base_state import BaseState
-from safe_legged_c3bf.controllers import make_gait_controller
-from safe_legged_c3bf.gait_controller import GaitController, VelocityCommand
-from safe_legged_c3bf.quadruped import a1_kinematics as kin
-from safe_legged_c3bf.quadruped.controller import QuadrupedMpcController
-from safe_legged_c3bf.quadruped.gait_schedule import GaitMode
-from safe_legged_c3bf.quadruped.params import QuadrupedParams
+from safe_legged_c3bf.gait.factory import make_gait_controller
+from safe_legged_c3bf.gait.quadruped import a1_kinematics as kin
+from safe_legged_c3bf.gait.quadruped.controller import QuadrupedMpcController
+from safe_legged_c3bf.gait.quadruped.gait_schedule import GaitMode
+from safe_legged_c3bf.gait.quadruped.params import QuadrupedParams
+from safe_legged_c3bf.interfaces.base_state import BaseState
+from safe_legged_c3bf.interfaces.gait_controller import GaitController, VelocityCommand
 
 HEIGHT = 0.28
 

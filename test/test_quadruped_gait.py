@@ -8,9 +8,9 @@ import os
 import numpy as np
 import pytest
 
-from safe_legged_c3bf.quadruped.gait_schedule import GaitMode, TrotSchedule
-from safe_legged_c3bf.quadruped.params import QuadrupedParams
-from safe_legged_c3bf.quadruped.swing import min_jerk, raibert_foothold, swing_point
+from safe_legged_c3bf.gait.quadruped.gait_schedule import GaitMode, TrotSchedule
+from safe_legged_c3bf.gait.quadruped.params import QuadrupedParams
+from safe_legged_c3bf.gait.quadruped.swing import min_jerk, raibert_foothold, swing_point
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 

@@ -6,8 +6,8 @@ import numpy as np
 import pybullet
 import pytest
 
-from safe_legged_c3bf.quadruped import a1_kinematics as kin
-from safe_legged_c3bf.quadruped.params import QuadrupedParams
+from safe_legged_c3bf.gait.quadruped import a1_kinematics as kin
+from safe_legged_c3bf.gait.quadruped.params import QuadrupedParams
 from safe_legged_c3bf.sim.robots import load_robot
 
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from safe_legged_c3bf.quadruped import a1_kinematics as kin
-from safe_legged_c3bf.quadruped.convex_mpc import GRAVITY, ConvexMpc, skew, yaw_rotations
-from safe_legged_c3bf.quadruped.params import QuadrupedParams
+from safe_legged_c3bf.gait.quadruped import a1_kinematics as kin
+from safe_legged_c3bf.gait.quadruped.convex_mpc import GRAVITY, ConvexMpc, skew, yaw_rotations
+from safe_legged_c3bf.gait.quadruped.params import QuadrupedParams
 
 HEIGHT = 0.28
 

@@ -19,9 +19,9 @@ from quadruped_harness import (
     run_tracking,
 )
 
-from safe_legged_c3bf.gait_controller import VelocityCommand
-from safe_legged_c3bf.quadruped.controller import QuadrupedMpcController
-from safe_legged_c3bf.quadruped.gait_schedule import GaitMode
+from safe_legged_c3bf.gait.quadruped.controller import QuadrupedMpcController
+from safe_legged_c3bf.gait.quadruped.gait_schedule import GaitMode
+from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
 
 pytestmark = pytest.mark.slow
 

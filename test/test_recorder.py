@@ -13,7 +13,7 @@ from mcap_ros2.decoder import DecoderFactory
 from message_samples import samples
 from rclpy.serialization import serialize_message
 
-from safe_legged_c3bf import topics
+from safe_legged_c3bf.interfaces import topics
 from safe_legged_c3bf.nodes.ros_common import qos
 from safe_legged_c3bf.run import msgdefs
 from safe_legged_c3bf.run.recorder import McapFile, RecorderNode

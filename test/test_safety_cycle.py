@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from filter_harness import ScriptedObstacle, SimpleRobot, clearance
 
-from safe_legged_c3bf.filtering.params import FilterParams
-from safe_legged_c3bf.filtering.safety_cycle import CycleStatus, SafetyFilterCycle
-from safe_legged_c3bf.gait_controller import VelocityCommand
+from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
+from safe_legged_c3bf.safety.params import FilterParams
+from safe_legged_c3bf.safety.safety_cycle import CycleStatus, SafetyFilterCycle
 
 RATE = 50.0
 DT = 1.0 / RATE

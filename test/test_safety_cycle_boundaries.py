@@ -20,12 +20,12 @@ import math
 import numpy as np
 import pytest
 
-from safe_legged_c3bf.base_state import BaseState, yaw_to_quaternion
 from safe_legged_c3bf.c3bf import FilterStatus, InvalidInputError
-from safe_legged_c3bf.filtering.obstacle_input import ObstacleInput
-from safe_legged_c3bf.filtering.params import FilterParams
-from safe_legged_c3bf.filtering.safety_cycle import CycleStatus, SafetyFilterCycle
-from safe_legged_c3bf.gait_controller import VelocityCommand
+from safe_legged_c3bf.interfaces.base_state import BaseState, yaw_to_quaternion
+from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
+from safe_legged_c3bf.safety.obstacle_input import ObstacleInput
+from safe_legged_c3bf.safety.params import FilterParams
+from safe_legged_c3bf.safety.safety_cycle import CycleStatus, SafetyFilterCycle
 
 P = FilterParams()
 PERIOD = 1.0 / P.rate

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from filter_harness import ScriptedObstacle, SimpleRobot
 
-from safe_legged_c3bf.filtering.params import FilterParams
-from safe_legged_c3bf.filtering.safety_cycle import CycleStatus, SafetyFilterCycle
-from safe_legged_c3bf.gait_controller import VelocityCommand
+from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
+from safe_legged_c3bf.safety.params import FilterParams
+from safe_legged_c3bf.safety.safety_cycle import CycleStatus, SafetyFilterCycle
 
 DT = 1.0 / FilterParams().rate
 # Its inflated circle (0.25 + 0.41 + 0.05 + 0.03 m) ends ~0.1 m ahead of the body point.

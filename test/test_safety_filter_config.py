@@ -2,8 +2,8 @@
 
 from dataclasses import asdict
 
-from safe_legged_c3bf.config import config_path, load_yaml
-from safe_legged_c3bf.filtering.params import FilterParams
+from safe_legged_c3bf.run.config import config_path, load_yaml
+from safe_legged_c3bf.safety.params import FilterParams
 
 
 def test_yaml_equals_defaults():

@@ -17,8 +17,8 @@ from nav_msgs.msg import Odometry
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 
-from safe_legged_c3bf import topics
-from safe_legged_c3bf.gait_controller import VelocityCommand
+from safe_legged_c3bf.interfaces import topics
+from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
 from safe_legged_c3bf.nodes import ros_common
 from safe_legged_c3bf.nodes.safety_filter_node import SafetyFilterNode
 from safe_legged_c3bf_msgs.msg import Obstacle, ObstacleArray, SafetyFilterState

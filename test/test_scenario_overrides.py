@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from safe_legged_c3bf import node_parameters as np_
+from safe_legged_c3bf.interfaces import node_parameters as np_
 from safe_legged_c3bf.sim.scenario import ScenarioError, parse_scenario
 
 REPO = Path(__file__).resolve().parents[1]

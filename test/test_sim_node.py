@@ -16,11 +16,11 @@ from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
-from safe_legged_c3bf import topics
-from safe_legged_c3bf.base_state import quaternion_to_matrix
-from safe_legged_c3bf.config import config_path
+from safe_legged_c3bf.interfaces import topics
+from safe_legged_c3bf.interfaces.base_state import quaternion_to_matrix
 from safe_legged_c3bf.nodes.ros_common import from_time_msg, qos, to_time_msg
 from safe_legged_c3bf.nodes.simulator_node import SimulatorNode
+from safe_legged_c3bf.run.config import config_path
 from safe_legged_c3bf.sim.node_params import SimulatorParams
 from safe_legged_c3bf.sim.scenario import ScenarioError
 from safe_legged_c3bf_msgs.msg import GroundTruthSafety, MotorCommand, Obstacle, ObstacleArray

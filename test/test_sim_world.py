@@ -10,7 +10,7 @@ import numpy as np
 import pybullet
 import pytest
 
-from safe_legged_c3bf.joint_command import JointCommand
+from safe_legged_c3bf.interfaces.joint_command import JointCommand
 from safe_legged_c3bf.sim.camera import CameraConfig
 from safe_legged_c3bf.sim.motor_driver import DriverMode
 from safe_legged_c3bf.sim.obstacles import (

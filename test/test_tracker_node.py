@@ -15,13 +15,13 @@ from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 from visualization_msgs.msg import Marker, MarkerArray
 
-from safe_legged_c3bf import topics
-from safe_legged_c3bf.config import config_path
+from safe_legged_c3bf.interfaces import topics
+from safe_legged_c3bf.interfaces.rotations import matrix_to_quaternion
 from safe_legged_c3bf.nodes import ros_common
 from safe_legged_c3bf.nodes.obstacle_tracker_node import ObstacleTrackerNode, ellipse_rotation
-from safe_legged_c3bf.rotations import matrix_to_quaternion
-from safe_legged_c3bf.tracking import ObstaclePlane
-from safe_legged_c3bf.tracking.params import ObstacleTrackerParams
+from safe_legged_c3bf.perception import ObstaclePlane
+from safe_legged_c3bf.perception.params import ObstacleTrackerParams
+from safe_legged_c3bf.run.config import config_path
 from safe_legged_c3bf_msgs.msg import Obstacle, ObstacleArray
 
 STEP_NS = 50_000_000  # 20 Hz detections and tracker rate: one publish per clock step

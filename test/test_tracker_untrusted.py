@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from safe_legged_c3bf.tracking import Detection, MultiObstacleTracker, TrackerConfig
+from safe_legged_c3bf.perception import Detection, MultiObstacleTracker, TrackerConfig
 
 DT = 0.05
 WALKER = Detection((1.5, 0.0, 0.5), (0.25, 0.25))

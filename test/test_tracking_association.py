@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from safe_legged_c3bf.tracking.association import (
+from safe_legged_c3bf.perception.association import (
     associate,
     gate_threshold,
     gated_assignment,

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from safe_legged_c3bf.tracking.kalman import (
+from safe_legged_c3bf.perception.kalman import (
     ConstantVelocityKalmanFilter,
     process_noise,
     transition_matrix,

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from safe_legged_c3bf.tracking.track import (
+from safe_legged_c3bf.perception.track import (
     Detection,
     ObstaclePlane,
     Track,

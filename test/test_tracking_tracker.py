@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from safe_legged_c3bf.tracking.track import Detection, ObstaclePlane, TrackConfig
-from safe_legged_c3bf.tracking.tracker import (
+from safe_legged_c3bf.perception.track import Detection, ObstaclePlane, TrackConfig
+from safe_legged_c3bf.perception.tracker import (
     MultiObstacleTracker,
     RejectionReason,
     TrackerConfig,

@@ -17,8 +17,8 @@ from nav_msgs.msg import Odometry
 from test_safety_filter_node import DT, Driver, odometry, twist
 from test_tracker_node import Harness, detection
 
-from safe_legged_c3bf import topics
-from safe_legged_c3bf.gait_controller import VelocityCommand
+from safe_legged_c3bf.interfaces import topics
+from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
 from safe_legged_c3bf.nodes import ros_common
 from safe_legged_c3bf_msgs.msg import Obstacle, ObstacleArray, SafetyFilterState
 

@@ -19,8 +19,8 @@ from builtin_interfaces.msg import Time as TimeMsg
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 
-from safe_legged_c3bf import topics
 from safe_legged_c3bf.evaluation.faults import Fault
+from safe_legged_c3bf.interfaces import topics
 from safe_legged_c3bf.nodes import ros_common
 from safe_legged_c3bf_msgs.msg import Obstacle
 

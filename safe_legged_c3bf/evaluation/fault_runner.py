@@ -21,7 +21,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from safe_legged_c3bf.evaluation.faults import FAULTS, Fault
-from safe_legged_c3bf.ros_domain import lease_domain
+from safe_legged_c3bf.run.ros_domain import lease_domain
 
 #: Sim seconds a run goes on after a fault that should stop the robot.
 STOP_WATCH = 6.0

@@ -2,7 +2,7 @@
 
 Each :class:`RunSpec` becomes one ``python -m safe_legged_c3bf.bringup`` subprocess with its own
 run folder (``<out>/runs/<run_id>/``, its stdout/stderr in ``bringup.log`` there). The
-bringup leases its own private ROS domain (``safe_legged_c3bf.ros_domain``), so parallel runs
+bringup leases its own private ROS domain (``safe_legged_c3bf.run.ros_domain``), so parallel runs
 never hear each other. At most ``jobs`` run at a time; a progress line is printed when a run
 starts and when it ends. A run that exceeds its wall-clock limit gets SIGINT (the bringup
 then stops its nodes and writes a partial report), SIGKILL to its process group after a grace

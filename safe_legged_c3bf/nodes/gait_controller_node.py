@@ -1,20 +1,20 @@
 """Gait controller node: /cmd_vel_safe + /odom + /joint_states -> /joint_commands.
 
-Hosts any :class:`~safe_legged_c3bf.gait_controller.GaitController` (the A1 convex-MPC trot or
-the biped ZMP walk, chosen by the ``robot`` parameter). As on a real robot, it runs on the
-high-rate sensors: it ticks when /imu and /joint_states of one stamp have both arrived and at
-least ``control_period`` has passed since the last tick. The base state combines the IMU
-(orientation, angular velocity) with the latest /odom (position and velocity, which arrive at
-a navigation rate), its position extrapolated to the tick. Each MotorCommand is stamped with
-the state it was computed from. No /cmd_vel_safe for ``command_timeout`` seconds (sim time)
--> the command becomes zero and the robot stops and stands. A state published again with
-the same stamp (the simulator waiting for a command) is answered again with the same command.
+Hosts any :class:`~safe_legged_c3bf.interfaces.gait_controller.GaitController` (the A1 convex-
+MPC trot or the biped ZMP walk, chosen by the ``robot`` parameter). As on a real robot, it runs
+on the high-rate sensors: it ticks when /imu and /joint_states of one stamp have both arrived
+and at least ``control_period`` has passed since the last tick. The base state combines the IMU
+(orientation, angular velocity) with the latest /odom (position and velocity, which arrive at a
+navigation rate), its position extrapolated to the tick. Each MotorCommand is stamped with the
+state it was computed from. No /cmd_vel_safe for ``command_timeout`` seconds (sim time) -> the
+command becomes zero and the robot stops and stands. A state published again with the same
+stamp (the simulator waiting for a command) is answered again with the same command.
 
-Untrusted inputs: /imu, /joint_states and /odom stamped more than ``max_future_stamp`` ahead
-of the node's clock, or older than ``command_timeout`` behind it, are rejected and counted
-(a publisher that is not on sim time cannot stall the controller by moving its time ahead).
-While /cmd_vel_safe has more than one publisher the command is ambiguous (which one is the
-safety filter cannot be told): every command is rejected and the robot stops and stands.
+Untrusted inputs: /imu, /joint_states and /odom stamped more than ``max_future_stamp`` ahead of
+the node's clock, or older than ``command_timeout`` behind it, are rejected and counted (a
+publisher that is not on sim time cannot stall the controller by moving its time ahead). While
+/cmd_vel_safe has more than one publisher the command is ambiguous (which one is the safety
+filter cannot be told): every command is rejected and the robot stops and stands.
 """
 
 from __future__ import annotations
@@ -29,14 +29,14 @@ from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from sensor_msgs.msg import Imu, JointState
 
-from safe_legged_c3bf import topics
-from safe_legged_c3bf.base_state import BaseState
-from safe_legged_c3bf.controllers import make_gait_controller
-from safe_legged_c3bf.gait_controller import VelocityCommand
-from safe_legged_c3bf.gait_controller_params import GaitControllerParams
-from safe_legged_c3bf.inputs import StampGate, StampVerdict
+from safe_legged_c3bf.gait.factory import make_gait_controller
+from safe_legged_c3bf.gait.params import GaitControllerParams
+from safe_legged_c3bf.interfaces import topics
+from safe_legged_c3bf.interfaces.base_state import BaseState
+from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
 from safe_legged_c3bf.nodes import ros_common
 from safe_legged_c3bf.nodes.parameters import NodeParameters
+from safe_legged_c3bf.safety import StampGate, StampVerdict
 from safe_legged_c3bf_msgs.msg import MotorCommand
 
 

@@ -14,8 +14,8 @@ from builtin_interfaces.msg import Time as TimeMsg
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
 
-from safe_legged_c3bf.base_state import BaseState
-from safe_legged_c3bf.gait_controller import VelocityCommand
+from safe_legged_c3bf.interfaces.base_state import BaseState
+from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
 from safe_legged_c3bf_msgs.msg import Obstacle
 
 

@@ -1,7 +1,7 @@
 """Obstacle tracker node: /obstacles/detections + /odom -> /obstacles, /obstacles/markers.
 
 Every detection message (an ObstacleArray of noisy positions and shapes, no velocities) is
-one batch for :class:`~safe_legged_c3bf.tracking.MultiObstacleTracker`, stamped with the
+one batch for :class:`~safe_legged_c3bf.perception.MultiObstacleTracker`, stamped with the
 message's header stamp; the robot position from /odom is the reference of the range check.
 Detections the tracker rejects (NaN/Inf, non-positive or implausible size, wrong frame, out
 of range, duplicate id, stale stamp) are counted by reason in /diagnostics, never published.
@@ -44,20 +44,20 @@ from rclpy.serialization import deserialize_message
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
-from safe_legged_c3bf import topics
-from safe_legged_c3bf.inputs import StampGate, StampVerdict
+from safe_legged_c3bf.interfaces import topics
+from safe_legged_c3bf.interfaces.rotations import matrix_to_quaternion
 from safe_legged_c3bf.nodes import ros_common
 from safe_legged_c3bf.nodes.messages import obstacle_to_msg
 from safe_legged_c3bf.nodes.parameters import NodeParameters
-from safe_legged_c3bf.rotations import matrix_to_quaternion
-from safe_legged_c3bf.tracking import (
+from safe_legged_c3bf.perception import (
     Detection,
     MultiObstacleTracker,
     ObstaclePlane,
     TrackedObstacle,
     TrackerConfig,
 )
-from safe_legged_c3bf.tracking.params import ObstacleTrackerParams
+from safe_legged_c3bf.perception.params import ObstacleTrackerParams
+from safe_legged_c3bf.safety import StampGate, StampVerdict
 from safe_legged_c3bf_msgs.msg import Obstacle, ObstacleArray
 
 #: Display length (m) of an obstacle with infinite extent.

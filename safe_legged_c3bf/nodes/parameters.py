@@ -1,7 +1,7 @@
 """Declare a typed parameter class on an rclpy node; validate start-up values and live updates.
 
 Every node of the graph uses :class:`NodeParameters` for its one parameter class
-(:class:`~safe_legged_c3bf.typed_params.TypedParams`)::
+(:class:`~safe_legged_c3bf.interfaces.typed_params.TypedParams`)::
 
     self.params = NodeParameters(self, FilterParams, apply=self._apply_params)
     rate = self.params.value.rate
@@ -29,7 +29,7 @@ from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from safe_legged_c3bf.typed_params import ParamSpec, TypedParams
+from safe_legged_c3bf.interfaces.typed_params import ParamSpec, TypedParams
 
 P = TypeVar("P", bound=TypedParams)
 

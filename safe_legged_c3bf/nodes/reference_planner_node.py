@@ -30,7 +30,8 @@ from geometry_msgs.msg import PoseStamped
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 
-from safe_legged_c3bf import topics
+from safe_legged_c3bf.interfaces import topics
+from safe_legged_c3bf.interfaces.rotations import yaw_from_quaternion
 from safe_legged_c3bf.nodes import ros_common
 from safe_legged_c3bf.nodes.parameters import NodeParameters, same_value
 from safe_legged_c3bf.planning.params import GOAL_PARAMS, NOMINAL_HEIGHT, ReferencePlannerParams
@@ -41,7 +42,6 @@ from safe_legged_c3bf.planning.reference_planner import (
     RobotPose,
     VelocityCommand,
 )
-from safe_legged_c3bf.rotations import yaw_from_quaternion
 
 
 def scenario_parameters(name_or_path: str, values: dict[str, object]) -> dict[str, object]:

@@ -19,6 +19,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
+from safe_legged_c3bf.interfaces.topics import Topic
 from safe_legged_c3bf.nodes.messages import (  # noqa: F401 - re-exported for the nodes
     command_to_twist,
     from_time_msg,
@@ -28,7 +29,6 @@ from safe_legged_c3bf.nodes.messages import (  # noqa: F401 - re-exported for th
     twist_is_finite,
     twist_to_command,
 )
-from safe_legged_c3bf.topics import Topic
 
 DIAGNOSTIC_LEVELS = {
     "ok": DiagnosticStatus.OK,

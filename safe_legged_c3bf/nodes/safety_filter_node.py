@@ -4,7 +4,7 @@ Publishes /cmd_vel_safe at ``rate`` Hz (sim time), /c3bf/state every cycle and /
 once a second and on every status change. A cycle runs as soon as odometry arrives (at most
 ``rate`` times per second), so the command reacts to the newest state; a sim-time timer keeps
 the cycles (and the braking) going when odometry stops. All logic is in
-:class:`~safe_legged_c3bf.filtering.safety_cycle.SafetyFilterCycle`; this is the ROS wrapper.
+:class:`~safe_legged_c3bf.safety.safety_cycle.SafetyFilterCycle`; this is the ROS wrapper.
 
 Untrusted inputs: every cycle runs at the node's own clock, never at a message's stamp.
 /odom and /obstacles stamped more than ``max_future_stamp`` ahead of that clock, or older
@@ -27,14 +27,14 @@ from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
 
-from safe_legged_c3bf import topics
 from safe_legged_c3bf.c3bf import InvalidInputError
-from safe_legged_c3bf.filtering.obstacle_input import ObstacleSet
-from safe_legged_c3bf.filtering.params import FilterParams
-from safe_legged_c3bf.filtering.safety_cycle import CycleOutput, CycleStatus, SafetyFilterCycle
-from safe_legged_c3bf.inputs import StampGate, StampVerdict, cap_nearest
+from safe_legged_c3bf.interfaces import topics
 from safe_legged_c3bf.nodes import ros_common
 from safe_legged_c3bf.nodes.parameters import NodeParameters
+from safe_legged_c3bf.safety import StampGate, StampVerdict, cap_nearest
+from safe_legged_c3bf.safety.obstacle_input import ObstacleSet
+from safe_legged_c3bf.safety.params import FilterParams
+from safe_legged_c3bf.safety.safety_cycle import CycleOutput, CycleStatus, SafetyFilterCycle
 from safe_legged_c3bf_msgs.msg import ObstacleArray, SafetyFilterState
 
 

@@ -44,7 +44,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 
-from safe_legged_c3bf import topics
+from safe_legged_c3bf.interfaces import topics
 from safe_legged_c3bf.nodes.parameters import NodeParameters
 from safe_legged_c3bf.nodes.ros_common import diagnostic_status, run_node, to_time_msg
 from safe_legged_c3bf.nodes.simulator.detection_publisher import DetectionPublisher

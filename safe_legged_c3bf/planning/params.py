@@ -14,8 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from safe_legged_c3bf.planning.reference_planner import PlannerConfig
-from safe_legged_c3bf.typed_params import (
+from safe_legged_c3bf.interfaces.typed_params import (
     FINITE,
     FINITE_OR_NAN,
     NON_NEGATIVE,
@@ -25,6 +24,7 @@ from safe_legged_c3bf.typed_params import (
     param,
     param_like,
 )
+from safe_legged_c3bf.planning.reference_planner import PlannerConfig
 
 #: Body height (m, odom z of base_link) the reference planner holds, per robot kind.
 NOMINAL_HEIGHT = {"quadruped": 0.28, "biped": 0.82}

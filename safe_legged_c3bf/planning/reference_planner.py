@@ -41,8 +41,8 @@ from dataclasses import dataclass
 from enum import StrEnum
 from numbers import Real
 
-from safe_legged_c3bf.rotations import wrap_angle
-from safe_legged_c3bf.typed_params import (
+from safe_legged_c3bf.interfaces.rotations import wrap_angle
+from safe_legged_c3bf.interfaces.typed_params import (
     FINITE,
     FLAG,
     NON_NEGATIVE,

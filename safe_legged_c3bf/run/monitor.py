@@ -16,9 +16,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from rclpy.node import Node
 
-from safe_legged_c3bf import topics
+from safe_legged_c3bf.interfaces import topics
+from safe_legged_c3bf.interfaces.rotations import yaw_from_quaternion
 from safe_legged_c3bf.nodes.ros_common import from_time_msg
-from safe_legged_c3bf.rotations import yaw_from_quaternion
 from safe_legged_c3bf.run.recorder import qos
 
 #: SafetyFilterState status codes -> names (the .msg constants).

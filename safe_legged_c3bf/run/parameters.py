@@ -35,7 +35,7 @@ OVERRIDE_TARGETS = {
 
 def config_files(node_name: str) -> list[Path]:
     """The node's own config file (layer 1), if the package has one."""
-    from safe_legged_c3bf.config import config_path
+    from safe_legged_c3bf.run.config import config_path
 
     try:
         path = config_path(f"{node_name}.yaml")
@@ -46,7 +46,7 @@ def config_files(node_name: str) -> list[Path]:
 
 def robot_profile(kind: str) -> dict[str, dict[str, Any]]:
     """Per-robot node parameters from config/robots/<kind>.yaml (node name -> values)."""
-    from safe_legged_c3bf.config import config_path, load_yaml
+    from safe_legged_c3bf.run.config import config_path, load_yaml
 
     kind = "quadruped" if kind == "a1" else kind
     try:
@@ -124,7 +124,7 @@ def filter_inflation(robot: Any, filter_params: dict[str, Any]) -> tuple[float, 
     values: dict[str, Any] = {"robot_width": robot.width, "robot_height": robot.height,
                               "safety_margin": 0.0}
     try:
-        from safe_legged_c3bf.filtering.params import FilterParams
+        from safe_legged_c3bf.safety.params import FilterParams
 
         defaults = asdict(FilterParams())
         values.update({k: defaults[k] for k in values if k in defaults})

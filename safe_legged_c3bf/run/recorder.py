@@ -23,7 +23,7 @@ from mcap.records import Schema
 from mcap_ros2.writer import Writer as Ros2Writer
 from rclpy.node import Node
 
-from safe_legged_c3bf import topics
+from safe_legged_c3bf.interfaces import topics
 from safe_legged_c3bf.run import msgdefs
 
 #: Reader-side queue depth: deep enough to ride out a busy moment without dropping messages.

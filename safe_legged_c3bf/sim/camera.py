@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet
 
-from safe_legged_c3bf.rotations import yaw_from_quaternion
+from safe_legged_c3bf.interfaces.rotations import yaw_from_quaternion
 
 
 @dataclass

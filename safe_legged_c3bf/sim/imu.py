@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from safe_legged_c3bf.rotations import rotate, rotate_inverse
+from safe_legged_c3bf.interfaces.rotations import rotate, rotate_inverse
 
 
 class Accelerometer:

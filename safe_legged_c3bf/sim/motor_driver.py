@@ -15,7 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 import pybullet
 
-from safe_legged_c3bf.joint_command import JointCommand
+from safe_legged_c3bf.interfaces.joint_command import JointCommand
 from safe_legged_c3bf.sim.robots import RobotHandle
 
 

@@ -9,8 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from safe_legged_c3bf.sim.video import SUFFIXES
-from safe_legged_c3bf.typed_params import (
+from safe_legged_c3bf.interfaces.typed_params import (
     FLAG,
     INTEGER,
     NON_EMPTY,
@@ -21,6 +20,7 @@ from safe_legged_c3bf.typed_params import (
     TypedParams,
     param,
 )
+from safe_legged_c3bf.sim.video import SUFFIXES
 
 #: A video file name: '' (no video) or a path ending in .gif or .mp4.
 VIDEO_FILE = Rule(

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pybullet
 
-from safe_legged_c3bf.rotations import matrix_to_quaternion
+from safe_legged_c3bf.interfaces.rotations import matrix_to_quaternion
 from safe_legged_c3bf.sim.scenario import MotionConfig, ObstacleConfig
 
 #: Obstacle planes (values of safe_legged_c3bf_msgs/Obstacle.plane).

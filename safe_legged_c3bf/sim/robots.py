@@ -15,7 +15,7 @@ import numpy as np
 import pybullet
 import pybullet_data
 
-from safe_legged_c3bf.base_state import yaw_to_quaternion
+from safe_legged_c3bf.interfaces.base_state import yaw_to_quaternion
 
 DESCRIPTION_DIR = os.path.join(os.path.dirname(os.path.dirname(__file__)), "description")
 
@@ -62,7 +62,7 @@ def _a1_spec() -> RobotSpec:
 
 
 def _biped_spec() -> RobotSpec:
-    # Spawn posture = the gait controller's standing posture (safe_legged_c3bf.biped):
+    # Spawn posture = the gait controller's standing posture (safe_legged_c3bf.gait.biped):
     # knees bent so the hip-to-ankle distance is 0.56 m (legs 0.30 + 0.30 m), feet flat.
     # Base height = 0.06 (sole to ankle) + 0.56 + 0.20 (hips below the torso origin) + 5 mm.
     bend = float(np.arccos(0.56 / 0.60))

@@ -22,7 +22,7 @@ from typing import Any
 
 import yaml
 
-from safe_legged_c3bf.config import config_path
+from safe_legged_c3bf.run.config import config_path
 from safe_legged_c3bf.sim.robots import robot_spec
 from safe_legged_c3bf.sim.scenario_clearance import clearance_problems, filter_params
 from safe_legged_c3bf.sim.scenario_schema import (

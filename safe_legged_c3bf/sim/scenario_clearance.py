@@ -1,7 +1,7 @@
 """Load-time checks that a scenario's start and goal are not inside an obstacle.
 
 "Inside" means inside the obstacle as the safety filter inflates it
-(:func:`safe_legged_c3bf.filtering.obstacle_input.to_c3bf_obstacles`), with the filter
+(:func:`safe_legged_c3bf.safety.obstacle_input.to_c3bf_obstacles`), with the filter
 parameters the bringup would give it: the defaults, ``config/safety_filter.yaml``, the robot's
 ``config/robots/<kind>.yaml`` and the scenario's ``filter:`` overrides, in that order. A robot
 that starts there begins with a violated barrier; a goal there cannot be reached safely.
@@ -27,13 +27,13 @@ import math
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from safe_legged_c3bf.filtering.params import FilterParams
+    from safe_legged_c3bf.safety.params import FilterParams
     from safe_legged_c3bf.sim.scenario import ObstacleConfig, Scenario
 
 
 def _config_filter_values(kind: str) -> list[dict[str, Any]]:
     """Filter parameters of config/safety_filter.yaml and config/robots/<kind>.yaml."""
-    from safe_legged_c3bf.config import config_path, load_yaml
+    from safe_legged_c3bf.run.config import config_path, load_yaml
 
     out = []
     try:
@@ -56,7 +56,7 @@ def filter_params(scenario: Scenario) -> FilterParams:
         ValueError: naming the parameter, when the scenario's overrides are invalid.
 
     """
-    from safe_legged_c3bf.filtering.params import FilterParams
+    from safe_legged_c3bf.safety.params import FilterParams
 
     params = FilterParams()
     for values in _config_filter_values(scenario.robot.kind):

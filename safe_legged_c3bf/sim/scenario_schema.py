@@ -4,7 +4,7 @@
 :func:`validate_document` and builds its frozen dataclasses from the result. Every mapping
 forbids unknown keys, including the parameter override sections (``filter``, ``tracker``,
 ``controller``, ``planner``), whose keys are the parameters the receiving node really declares
-(:mod:`safe_legged_c3bf.node_parameters`). Parts: the leaf-value validators are in
+(:mod:`safe_legged_c3bf.interfaces.node_parameters`). Parts: the leaf-value validators are in
 :mod:`.scenario_fields`, the section models in :mod:`.scenario_sections`, the error lines
 (unknown keys first, with "did you mean") in :mod:`.scenario_errors`.
 """

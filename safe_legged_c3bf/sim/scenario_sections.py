@@ -3,7 +3,7 @@
 Every model forbids unknown keys and treats a null value as "default"; :meth:`Section.given`
 returns the keys the file really gave. The override sections (``filter``, ``tracker``,
 ``controller``, ``planner``) are built by :func:`override_model` from the parameters the
-receiving node declares (:mod:`safe_legged_c3bf.node_parameters`). Units: m, s, rad, m/s;
+receiving node declares (:mod:`safe_legged_c3bf.interfaces.node_parameters`). Units: m, s, rad, m/s;
 positions in odom (the world frame). The whole document is
 :func:`safe_legged_c3bf.sim.scenario_schema.scenario_model`.
 """
@@ -24,7 +24,7 @@ from pydantic import (
     model_validator,
 )
 
-from safe_legged_c3bf.node_parameters import (
+from safe_legged_c3bf.interfaces.node_parameters import (
     OVERRIDE_NODES,
     override_fixed_parameters,
     override_parameter_defaults,

@@ -36,9 +36,9 @@ import pybullet
 import pybullet_data
 from numpy.typing import ArrayLike
 
-from safe_legged_c3bf.base_state import BaseState
-from safe_legged_c3bf.joint_command import JointCommand
-from safe_legged_c3bf.rotations import rotate_inverse
+from safe_legged_c3bf.interfaces.base_state import BaseState
+from safe_legged_c3bf.interfaces.joint_command import JointCommand
+from safe_legged_c3bf.interfaces.rotations import rotate_inverse
 from safe_legged_c3bf.sim.camera import CameraConfig, FollowCamera
 from safe_legged_c3bf.sim.goal_progress import GoalProgress
 from safe_legged_c3bf.sim.ground_truth import GroundTruthMonitor, GroundTruthSample

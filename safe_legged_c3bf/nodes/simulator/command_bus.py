@@ -16,7 +16,7 @@ from rclpy.guard_condition import GuardCondition
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 
-from safe_legged_c3bf import topics
+from safe_legged_c3bf.interfaces import topics
 from safe_legged_c3bf.nodes.ros_common import qos
 from safe_legged_c3bf_msgs.msg import MotorCommand
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from rclpy.node import Node
 
-from safe_legged_c3bf import topics
+from safe_legged_c3bf.interfaces import topics
 from safe_legged_c3bf.nodes.messages import obstacle_to_msg
 from safe_legged_c3bf.nodes.ros_common import to_time_msg
 from safe_legged_c3bf.nodes.simulator.quiet_publisher import quiet_publisher

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from rclpy.node import Node
 
-from safe_legged_c3bf import topics
+from safe_legged_c3bf.interfaces import topics
 from safe_legged_c3bf.nodes.messages import time_parts
 from safe_legged_c3bf.nodes.ros_common import to_time_msg
 from safe_legged_c3bf.nodes.simulator.cdr_template import (

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from safe_legged_c3bf import topics
+from safe_legged_c3bf.interfaces import topics
 from safe_legged_c3bf.nodes.messages import obstacle_to_msg, to_time_msg
 from safe_legged_c3bf.sim.obstacles import ObstacleState
 from safe_legged_c3bf_msgs.msg import ObstacleArray

@@ -5,8 +5,8 @@ from __future__ import annotations
 from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.node import Node
 
+from safe_legged_c3bf.interfaces.topics import Topic
 from safe_legged_c3bf.nodes.ros_common import qos
-from safe_legged_c3bf.topics import Topic
 
 
 def quiet_publisher(node: Node, topic: Topic):  # noqa: ANN201 - rclpy Publisher

@@ -1,0 +1,1 @@
+"""The contract between the parts: topics, robot state, commands, rotations, parameters."""

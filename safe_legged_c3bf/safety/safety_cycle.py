@@ -1,0 +1,467 @@
+"""One cycle of the C3BF safety filter node, without ROS: reference -> safe velocity command.
+
+Per cycle (sim time ``t``):
+
+1. Fail-safe checks: odometry older than ``odom_timeout`` or obstacles older than
+   ``obstacles_timeout`` (or never received), or either stamped more than
+   ``max_future_stamp`` ahead of ``t`` -> brake every velocity to zero at ``brake_decel``
+   (STALE_INPUT). A reference older than ``reference_timeout`` (or from the future) -> the
+   reference becomes zero (flagged, still filtered). An obstacle seen in the last
+   ``vanished_memory`` s that is gone from the list while inside the robot's stopping
+   distance -> brake to a stop (EMERGENCY_BRAKE; see ``filtering.vanished``).
+2. Reference to acceleration: u_ref = k (v_ref - v), saturated (the paper's P tracking), where
+   v is the commanded velocity held by this cycle's integrator (the model's velocity state).
+3. The C3BF QP (``safe_legged_c3bf.c3bf.SafetyFilter``) over (a, alpha, a_z) for the unicycle
+   model with body-point offset (the paper's) or (a_x, a_y, a_z) for the holonomic model,
+   with vertical and horizontal obstacles together. Per-cycle input bounds add the velocity
+   limits, a height-range barrier (never duck below ``min_height``: brake or steer instead)
+   and anti-windup (no further integration in a direction where the command already leads
+   the measured velocity by more than ``windup_band``).
+4. Integrate the safe acceleration into the published velocity command.
+
+Frames: odom for positions and obstacles; the command is in base_link (REP-103). In the
+unicycle model the command's linear.y is always 0: that model cannot vouch for side-steps.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from safe_legged_c3bf.c3bf import (
+    FilterResult,
+    FilterStatus,
+    HolonomicHeightModel,
+    InvalidInputError,
+    SafetyFilter,
+    UnicycleHeightModel,
+)
+from safe_legged_c3bf.interfaces.base_state import BaseState
+from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
+from safe_legged_c3bf.interfaces.rotations import yaw_from_quaternion
+from safe_legged_c3bf.safety.obstacle_input import (
+    ObstacleInput,
+    ObstacleSet,
+    to_c3bf_obstacles,
+)
+from safe_legged_c3bf.safety.params import FilterParams
+from safe_legged_c3bf.safety.vanished import Vanished, VanishWatch
+
+
+class CycleStatus(enum.IntEnum):
+    """Status of a cycle; values equal the SafetyFilterState message constants."""
+
+    PASS_THROUGH = 0
+    INACTIVE = 1
+    ACTIVE = 2
+    RELAXED = 3
+    EMERGENCY_BRAKE = 4
+    STALE_INPUT = 5
+    INVALID_INPUT = 6
+
+
+_FROM_FILTER = {
+    FilterStatus.INACTIVE: CycleStatus.INACTIVE,
+    FilterStatus.ACTIVE: CycleStatus.ACTIVE,
+    FilterStatus.RELAXED: CycleStatus.RELAXED,
+    FilterStatus.EMERGENCY: CycleStatus.EMERGENCY_BRAKE,
+    # FAILSAFE (the solver failed) is answered by braking at brake_decel: see _filtered.
+}
+
+
+@dataclass
+class CycleOutput:
+    """What one cycle produced.
+
+    Attributes:
+        command: the safe velocity command (base_link).
+        status: what happened (see :class:`CycleStatus`).
+        text: a human-readable reason.
+        reference: the reference used (zero when stale).
+        reference_stale: the reference was older than its timeout.
+        u_reference, u_safe: the model inputs before and after filtering.
+        result: the QP result (None when the QP did not run).
+        obstacle_ids: ids of the constraints, in ``result`` order.
+
+    """
+
+    command: VelocityCommand
+    status: CycleStatus
+    text: str
+    reference: VelocityCommand
+    reference_stale: bool
+    u_reference: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    u_safe: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    result: FilterResult | None = None
+    obstacle_ids: list[str] = field(default_factory=list)
+
+
+def _sat(x: float, limit: float) -> float:
+    return max(-limit, min(limit, x))
+
+
+def _toward_zero(x: float, step: float) -> float:
+    return 0.0 if abs(x) <= step else x - math.copysign(step, x)
+
+
+def _with_ref(text: str, ref_stale: bool) -> str:
+    return text + " (reference stale: zero)" if ref_stale else text
+
+
+def _fresh(age: float, timeout: float, max_future: float) -> bool:
+    """True when a stamp ``age`` s old (negative: from the future) is usable."""
+    return -max_future <= age <= timeout
+
+
+class SafetyFilterCycle:
+    """The safety filter's per-cycle logic, holding the commanded-velocity integrator."""
+
+    def __init__(self, params: FilterParams | None = None) -> None:
+        """Create the cycle with validated ``params`` (defaults if None)."""
+        self.params = (params or FilterParams()).validate()
+        self._build()
+        # Commanded velocity (base_link): vx, vy, vz, yaw rate.
+        self._v = np.zeros(4)
+        self._initialised = False
+        self._last_t: float | None = None
+        # Deadlock resolution: turn side (+1 left, -1 right, 0 none), when last deadlocked,
+        # and whether the last cycle's QP changed the command.
+        self._detour_side = 0
+        self._detour_time = -math.inf
+        self._detour_until = -math.inf
+        self._held_back = False
+        # Obstacles seen recently, and the vanished one being braked for (if any).
+        self._vanish_watch = VanishWatch()
+        self._vanish_brake: Vanished | None = None
+
+    def _build(self) -> None:
+        p = self.params
+        if p.model == "unicycle":
+            model = UnicycleHeightModel(offset=p.offset)
+            limits = np.array([p.max_accel, p.max_yaw_accel, p.max_vertical_accel])
+        else:
+            model = HolonomicHeightModel()
+            limits = np.array([p.max_accel, p.max_accel, p.max_vertical_accel])
+        self._limits = limits
+        self.filter = SafetyFilter(
+            model, gamma=p.gamma, weights=np.array(p.weights), u_min=-limits, u_max=limits
+        )
+
+    def set_params(self, params: FilterParams) -> None:
+        """Replace the parameters (validated) and rebuild the QP."""
+        self.params = params.validate()
+        self._build()
+
+    @property
+    def commanded(self) -> VelocityCommand:
+        """The current commanded velocity."""
+        vx, vy, vz, wz = self._v
+        return VelocityCommand(vx, vy, vz, wz)
+
+    # ------------------------------------------------------------------ helpers
+    def _clip_velocity(self, v: np.ndarray) -> np.ndarray:
+        p = self.params
+        vy_max = p.max_lateral_speed if p.model == "holonomic" else 0.0
+        return np.array(
+            [
+                min(max(v[0], -p.max_reverse_speed), p.max_speed),
+                _sat(v[1], vy_max),
+                _sat(v[2], p.max_vertical_speed),
+                _sat(v[3], p.max_yaw_rate),
+            ]
+        )
+
+    def _brake(self, dt: float) -> None:
+        p = self.params
+        step = p.brake_decel * dt
+        self._v = np.array([_toward_zero(x, step) for x in self._v])
+
+    @staticmethod
+    def _measured(base: BaseState) -> tuple[np.ndarray, float]:
+        """Measured (vx, vy, vz, yaw rate) (body-frame planar, odom vertical) and the yaw.
+
+        Scalar math on the unit quaternion: the formulas of ``BaseState.yaw`` and
+        ``BaseState.linear_velocity_world`` without building the rotation matrix.
+        """
+        qx, qy, qz, qw = base.orientation.tolist()
+        norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+        qx, qy, qz, qw = qx / norm, qy / norm, qz / norm, qw / norm
+        yaw = yaw_from_quaternion(qx, qy, qz, qw)
+        vx, vy, vz = base.linear_velocity.tolist()
+        vz_world = (2 * (qx * qz - qy * qw) * vx + 2 * (qy * qz + qx * qw) * vy
+                    + (1 - 2 * (qx * qx + qy * qy)) * vz)
+        return np.array([vx, vy, vz_world, float(base.angular_velocity[2])]), yaw
+
+    # ------------------------------------------------------------------ the cycle
+    def step(
+        self,
+        t: float,
+        reference: VelocityCommand | None,
+        reference_time: float | None,
+        base: BaseState | None,
+        obstacles: ObstacleSet | Sequence[ObstacleInput] | None,
+        obstacles_time: float | None,
+    ) -> CycleOutput:
+        """Run one cycle at sim time ``t`` (s) and return the command to publish.
+
+        Args:
+            t: current sim time (s).
+            reference: latest reference command (None if never received).
+            reference_time: sim time the reference was received (s).
+            base: latest odometry (None if never received); ``base.stamp`` is its time.
+            obstacles: latest obstacle list (None if never received): best an
+                :class:`ObstacleSet`, validated once when the list arrived; a list of
+                :class:`ObstacleInput` is validated every cycle.
+            obstacles_time: stamp of the obstacle list (s).
+
+        """
+        p = self.params
+        dt = self._advance(t)
+        ref_stale = reference is None or reference_time is None or not _fresh(
+            t - reference_time, p.reference_timeout, p.max_future_stamp
+        )
+        ref = VelocityCommand() if ref_stale else reference
+        if not p.enabled:
+            self._v = ref.as_array()
+            self._initialised = False
+            text = "filter disabled: reference passed through"
+            return CycleOutput(ref, CycleStatus.PASS_THROUGH, _with_ref(text, ref_stale), ref,
+                               ref_stale)
+        stale = self._stale_inputs(t, base, obstacles, obstacles_time)
+        if stale:
+            return self._braked(dt, CycleStatus.STALE_INPUT, f"{stale} stale: braking to zero",
+                                ref, ref_stale)
+        measured, yaw = self._measured(base)
+        if not self._initialised:
+            self._v = self._clip_velocity(measured)
+            self._initialised = True
+        pos = base.position
+        try:  # obstacles predicted to now from their stamp
+            circles, ids = to_c3bf_obstacles(
+                obstacles, t - obstacles_time, float(pos[1]), p.robot_width, p.robot_height,
+                p.safety_margin, p.horizontal_y_margin, yaw, p.tie_break,
+            )
+        except InvalidInputError as err:
+            return self._braked(dt, CycleStatus.INVALID_INPUT, f"rejected obstacles: {err}",
+                                ref, ref_stale)
+        vanished = self._check_vanished(t, obstacles, pos, yaw)
+        self._vanish_watch.observe(t, ids, circles)
+        if vanished is not None:
+            out = self._braked(
+                dt, CycleStatus.EMERGENCY_BRAKE,
+                f"obstacle '{vanished.obstacle_id}' vanished {vanished.clearance:.2f} m away, "
+                f"inside the stopping distance {vanished.stopping_distance:.2f} m: braking "
+                "to a stop", ref, ref_stale,
+            )
+            if not self._v.any():  # stopped: the vanished obstacle has been answered
+                self._vanish_brake = None
+            return out
+        return self._filtered(t, dt, ref, ref_stale, pos, yaw, measured, circles, ids)
+
+    def _advance(self, t: float) -> float:
+        """The integration step of the cycle at ``t`` (s).
+
+        Nominal at first; never 0 (two cycles at one stamp, or time going back: a quarter
+        period) nor more than two periods (the integrator must not leap).
+        """
+        period = 1.0 / self.params.rate
+        last, self._last_t = self._last_t, t
+        return period if last is None else min(max(t - last, 0.25 * period), 2.0 * period)
+
+    def _stale_inputs(self, t: float, base, obstacles, obstacles_time) -> str:  # noqa: ANN001
+        """'odometry', 'obstacles', both joined by 'and', or '' when both are fresh."""
+        p = self.params
+        odom_stale = base is None or not _fresh(
+            t - base.stamp, p.odom_timeout, p.max_future_stamp
+        )
+        obstacles_stale = obstacles is None or obstacles_time is None or not _fresh(
+            t - obstacles_time, p.obstacles_timeout, p.max_future_stamp
+        )
+        return " and ".join(
+            n for n, s in (("odometry", odom_stale), ("obstacles", obstacles_stale)) if s
+        )
+
+    def _braked(
+        self, dt: float, status: CycleStatus, text: str, ref: VelocityCommand, ref_stale: bool,
+        u_ref: np.ndarray | None = None,
+    ) -> CycleOutput:
+        """Brake every velocity towards zero at ``brake_decel`` and say why."""
+        self._brake(dt)
+        out = CycleOutput(self.commanded, status, text, ref, ref_stale)
+        if u_ref is not None:
+            out.u_reference = u_ref
+        return out
+
+    def _model_problem(
+        self, ref_arr: np.ndarray, pos: np.ndarray, yaw: float
+    ) -> tuple[np.ndarray, np.ndarray, tuple[int, int, int]]:
+        """The QP's state, reference input and integrated velocity index per input.
+
+        The reference input is u_ref = k (v_ref - v), saturated at the input limits.
+        """
+        p, v = self.params, self._v
+        if p.model == "unicycle":  # inputs (a, alpha, a_z) -> vx, wz, vz
+            state = np.array([pos[0], pos[1], yaw, v[0], v[3], pos[2], v[2]])
+            gains = ((p.k_v, 0, p.max_accel), (p.k_w, 3, p.max_yaw_accel))
+        else:  # inputs (a_x, a_y, a_z) -> vx, vy, vz
+            c, s = math.cos(yaw), math.sin(yaw)
+            state = np.array(
+                [pos[0], pos[1], c * v[0] - s * v[1], s * v[0] + c * v[1], pos[2], v[2]]
+            )
+            gains = ((p.k_v, 0, p.max_accel), (p.k_v, 1, p.max_accel))
+        gains += ((p.k_z, 2, p.max_vertical_accel),)
+        u_ref = np.array([_sat(k * (ref_arr[j] - v[j]), limit) for k, j, limit in gains])
+        return state, u_ref, tuple(j for _, j, _ in gains)
+
+    def _filtered(  # noqa: ANN001 - circles: c3bf Obstacles
+        self, t, dt, ref, ref_stale, pos, yaw, measured, circles, ids
+    ) -> CycleOutput:
+        """The C3BF QP on the reference, integrated into the command (fresh inputs)."""
+        p, v = self.params, self._v
+        ref_arr = ref.as_array()  # vx, vy, vz, wz
+        deadlocked = p.model == "unicycle" and self._deadlock_turn(t, ref_arr, circles, pos, yaw)
+        state, u_ref, idx = self._model_problem(ref_arr, pos, yaw)
+        u_min, u_max = self._bounds(v, measured, float(pos[2]), dt, idx)
+        u_ref_clipped = np.minimum(np.maximum(u_ref, u_min), u_max)  # np.clip, less overhead
+        try:
+            result = self.filter.filter(
+                state, u_ref_clipped, circles, yaw=yaw, u_min=u_min, u_max=u_max
+            )
+        except InvalidInputError as err:
+            return self._braked(dt, CycleStatus.INVALID_INPUT, f"rejected input: {err}", ref,
+                                ref_stale, u_ref)
+        if result.status is FilterStatus.FAILSAFE:  # the solver failed: brake, known profile
+            return self._braked(dt, CycleStatus.EMERGENCY_BRAKE,
+                                _with_ref(f"{result.message}: braking", ref_stale), ref,
+                                ref_stale, u_ref)
+        u = result.u_safe
+        new_v = v.copy()
+        for k, j in enumerate(idx):
+            new_v[j] = v[j] + u[k] * dt
+        if p.model == "unicycle":
+            new_v[1] = 0.0
+        else:
+            new_v[3] = ref_arr[3]  # yaw does not move the holonomic body point
+        self._v = self._clip_velocity(new_v)
+        status = _FROM_FILTER[result.status]
+        self._held_back = status is not CycleStatus.INACTIVE
+        text = result.message or status.name.lower()
+        if deadlocked:
+            text += f" (deadlock: turning {'left' if self._detour_side > 0 else 'right'})"
+        return CycleOutput(
+            self.commanded, status, _with_ref(text, ref_stale), ref, ref_stale, u_ref,
+            u.copy(), result, ids,
+        )
+
+    def _check_vanished(self, t: float, obstacles, pos: np.ndarray, yaw: float):  # noqa: ANN001
+        """The vanished obstacle to brake for (kept until the robot has stopped), or None."""
+        if self._vanish_brake is not None:
+            return self._vanish_brake
+        p = self.params
+        present = obstacles.ids if isinstance(obstacles, ObstacleSet) else [
+            o.id for o in obstacles
+        ]
+        offset = p.offset if p.model == "unicycle" else 0.0
+        body_xy = (pos[0] + offset * math.cos(yaw), pos[1] + offset * math.sin(yaw))
+        speed = math.hypot(self._v[0], self._v[1])
+        stopping = speed * speed / (2.0 * p.brake_decel) + speed / p.rate
+        self._vanish_brake = self._vanish_watch.check(
+            t, present, body_xy, (body_xy[0], float(pos[2])), stopping, p.safety_margin,
+            p.vanished_memory,
+        )
+        return self._vanish_brake
+
+    def _deadlock_turn(
+        self, t: float, ref_arr: np.ndarray, circles, pos: np.ndarray, yaw: float  # noqa: ANN001
+    ) -> bool:
+        """Deadlock resolution: replace the reference yaw rate by a turn in place if stuck.
+
+        Deadlocked: the filter changed the last command and holds the robot still (commanded
+        speed below ``deadlock_speed``, yaw rate below half ``deadlock_yaw_rate``) while the
+        reference asks to move or to turn. At rest every barrier is 0 and its gradient only
+        forbids body-point motion towards each obstacle, so the QP can hold the robot still
+        for good (an undesired equilibrium of CBF-QPs): in front of an obstacle, or between
+        obstacles that each block one way of turning. The reference (not the constraint) then
+        turns in place for at least ``deadlock_turn_time`` s, to the side whose body-point
+        motion points most away from the obstacles within 1 m of their inflated circles (the
+        side that passes the nearest one as the tie-break does when that is a tie). The side
+        is kept for ``deadlock_memory`` s so noise cannot make the robot dither. The QP still
+        filters the turn. Modifies ``ref_arr`` in place; returns True when it did.
+        """
+        p = self.params
+        if p.deadlock_yaw_rate <= 0.0:
+            return False
+        v = self._v
+        if t < self._detour_until and v[0] < 2.0 * p.deadlock_speed:
+            ref_arr[3] = self._detour_side * p.deadlock_yaw_rate
+            return True
+        stuck = (self._held_back and abs(v[0]) < p.deadlock_speed
+                 and abs(v[3]) < 0.5 * p.deadlock_yaw_rate
+                 and (ref_arr[0] > p.deadlock_speed
+                      or abs(ref_arr[3]) > 0.5 * p.deadlock_yaw_rate))
+        if not stuck:
+            return False
+        if self._detour_side == 0 or t - self._detour_time > p.deadlock_memory:
+            side = self._deadlock_side(circles, pos, yaw)
+            if side == 0:
+                return False
+            self._detour_side = side
+        self._detour_time = t
+        self._detour_until = t + p.deadlock_turn_time
+        ref_arr[3] = self._detour_side * p.deadlock_yaw_rate
+        return True
+
+    def _deadlock_side(self, circles, pos: np.ndarray, yaw: float) -> int:  # noqa: ANN001
+        """Turn side (+1 left, -1 right) for the deadlock turn; 0 without vertical obstacles."""
+        vertical = np.asarray(circles.plane) == 0
+        if not vertical.any():
+            return 0
+        c, s = math.cos(yaw), math.sin(yaw)
+        body = np.array([pos[0] + self.params.offset * c, pos[1] + self.params.offset * s])
+        away = body - circles.center[vertical]  # from each obstacle to the body point
+        dist = np.linalg.norm(away, axis=1)
+        gap = dist - circles.radius[vertical]
+        near = gap < 1.0
+        if near.any():
+            unit = away[near] / np.maximum(dist[near], 1e-9)[:, None]
+            left = np.array([-s, c])  # body-point velocity direction of a left turn
+            score_left = float(np.min(unit @ left))
+            score_right = float(np.min(unit @ -left))
+            if abs(score_left - score_right) > 0.1:
+                return 1 if score_left > score_right else -1
+        nearest = -away[int(np.argmin(gap))]
+        lateral = -s * nearest[0] + c * nearest[1]  # + = obstacle on the left
+        return -1 if lateral > 0.0 else 1
+
+    def _bounds(
+        self, v: np.ndarray, measured: np.ndarray, z: float, dt: float, idx: tuple[int, ...]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Per-cycle input bounds: limits, velocity limits, height range and anti-windup."""
+        p = self.params
+        hi = self._limits.tolist()
+        lo = [-x for x in hi]
+        vy_max = p.max_lateral_speed if p.model == "holonomic" else 0.0
+        v_lo = (-p.max_reverse_speed, -vy_max, -p.max_vertical_speed, -p.max_yaw_rate)
+        v_hi = (p.max_speed, vy_max, p.max_vertical_speed, p.max_yaw_rate)
+        vl, ml = v.tolist(), measured.tolist()
+        for k, j in enumerate(idx):
+            lo[k] = max(lo[k], (v_lo[j] - vl[j]) / dt)
+            hi[k] = min(hi[k], (v_hi[j] - vl[j]) / dt)
+            lead = vl[j] - ml[j]
+            if lead > p.windup_band:
+                hi[k] = min(hi[k], 0.0)
+            elif lead < -p.windup_band:
+                lo[k] = max(lo[k], 0.0)
+        # Height-range barrier (second order, exponential): min_height <= z <= max_height.
+        k_h, vz = p.height_gain, vl[2]
+        kz = idx.index(2)
+        lo[kz] = max(lo[kz], -2.0 * k_h * vz - k_h * k_h * (z - p.min_height))
+        hi[kz] = min(hi[kz], -2.0 * k_h * vz + k_h * k_h * (p.max_height - z))
+        for k in range(len(lo)):
+            if lo[k] > hi[k]:  # conflicting limits: take the middle (limits are soft here)
+                lo[k] = hi[k] = 0.5 * (lo[k] + hi[k])
+        return np.array(lo), np.array(hi)
