@@ -38,6 +38,12 @@ Solution strategy (every path returns the exact optimum of that problem, or says
    of the radial speed (``inside``); otherwise brake and accelerate away from the centres.
 7. Solver failure or non-finite intermediate numbers: ``FAILSAFE`` brake input.
 
+Whole body (``body=`` a :class:`~.body.RobotBody`): one row per (body point, obstacle) pair
+of the same plane, each with its point's own kinematics and the obstacle grown by the
+point's radius (``body_rows``); steps 1 and 3-7 as above on those rows, and the result
+folded back to one entry per obstacle (its worst row). ``body=None`` is the paper's
+single body point of the model.
+
 Inputs outside the numeric domain (NaN/Inf, ``|x| > 1e9``, wrong shapes; see ``domain``)
 raise :class:`~.errors.InvalidInputError` naming the entry, before any work. A reference
 beyond ``domain.REF_RATIO_MAX`` x the input scale is answered only where the answer is exact
@@ -61,13 +67,15 @@ import osqp
 
 from .active_set import solve_box_qp
 from .barrier import DEFAULT_V_EPS
+from .body import RobotBody
+from .body_rows import body_rows, per_obstacle
 from .closed_form import cbf_closed_form, one_obstacle
 from .domain import REF_RATIO_MAX, checked_scalar, far_reference_error
 from .errors import InvalidInputError
 from .filter_inputs import FLOAT_MAX, Bounds, check_bounds, check_weights, check_yaw, vector
 from .filter_outputs import failsafe_result, make_result
 from .geometry import Obstacles
-from .inside import INSIDE_REL_CLEARANCE, escape_input, inside_rows
+from .inside import INSIDE_REL_CLEARANCE, escape_input, inside_rows, rows_of
 from .models import PointKinematics, RobotModel
 from .osqp_qp import INFEASIBLE, OSQP_INF, RETRYABLE, QPSolvers
 from .result import FilterResult, FilterStatus
@@ -98,6 +106,9 @@ class SafetyFilter:
         exit_speed: Radial speed [m/s] a robot inside a circle and leaving it is kept at
             (at least, asymptotically): 0 only forbids going deeper (see ``inside``).
         osqp_settings: Overrides of the OSQP settings (see ``OSQP_DEFAULTS``).
+        body: A :class:`~.body.RobotBody` for the whole-body filter (its points' offsets
+            replace the model's body point; the model's ``offset`` is not used), or None for
+            the paper's single body point.
 
     Safety margin: the collision cone lets the body point graze the circle along a tangent
     (``h = 0`` there, distance exactly ``r``), so sampling, integration and tracking errors
@@ -128,6 +139,7 @@ class SafetyFilter:
         escape_accel: float = 1.0,
         exit_speed: float = 0.0,
         osqp_settings: dict | None = None,
+        body: RobotBody | None = None,
     ):
         if not isinstance(model, RobotModel):
             raise InvalidInputError("model must be a RobotModel")
@@ -155,6 +167,9 @@ class SafetyFilter:
         self.exit_speed = checked_scalar("exit_speed", exit_speed, 0.0)
         self._qp = QPSolvers(w, relax_penalty, osqp_settings)
         self._warm: tuple = (None, ())  # (row layout, active rows) of the last active-set solve
+        if body is not None and not isinstance(body, RobotBody):
+            raise InvalidInputError("body must be a RobotBody or None")
+        self.body = body
 
     # ------------------------------------------------------------------ public API
     def filter(
@@ -203,6 +218,8 @@ class SafetyFilter:
                 f"{sorted(p.name for p in model.planes)}"
             )
         try:
+            if self.body is not None:
+                return self._filter_body(x, u0, ul, obstacles, yaw, t0)
             kin = model.point_kinematics_tuple(xl, yaw)
             if len(obstacles) == 1 and not far:
                 res = one_obstacle(
@@ -231,6 +248,16 @@ class SafetyFilter:
         self._warm = (None, ())
 
     # ------------------------------------------------------------------ internals
+    def _filter_body(self, x, u0, ul, obs: Obstacles, yaw, t0) -> FilterResult:
+        """The whole-body filter: rows per (body point, obstacle), folded per obstacle."""
+        if len(obs) == 0:
+            kin = self.model.point_kinematics_tuple(x.tolist(), yaw)
+            return self._filter(x, u0, ul, kin, obs, yaw, t0)
+        rows = body_rows(self.model, x, yaw, self.body, obs)
+        with np.errstate(all="ignore"):  # overflow etc. is detected and handled explicitly
+            res = self._filter(x, u0, ul, rows.kin, rows.obstacles, yaw, t0)
+        return per_obstacle(res, rows, len(obs))
+
     def _filter(self, x, u0, ul, kin, obs: Obstacles, yaw, t0) -> FilterResult:
         """Barrier terms of every obstacle, then the QP (or the inside-a-circle handling)."""
         radius = obs.radius + self.margin
@@ -347,8 +374,10 @@ class SafetyFilter:
                 res.status, res.active = FilterStatus.EMERGENCY, inside.copy()
                 return res
         brake_u = self.model.brake_input(x, yaw, self.brake_gain)
+        deepest = idx[int(np.argmin(terms.clearance[idx]))]  # its point escapes (whole body)
         u = escape_input(
-            kin, rad.p_rel, obs.plane[idx], brake_u, self.brake_gain, self.escape_accel
+            rows_of(kin, deepest), rad.p_rel, obs.plane[idx], brake_u, self.brake_gain,
+            self.escape_accel,
         )
         if not np.isfinite(u).all():
             u = self._brake(x, yaw)

@@ -46,7 +46,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .lie import PLANE_AXES
+from .lie import PLANE_AXES, plane_take
 from .models import PointKinematics
 from .rows import Terms
 
@@ -57,6 +57,7 @@ __all__ = [
     "escape_input",
     "inside_rows",
     "radial_terms",
+    "rows_of",
     "signed_h",
 ]
 
@@ -80,6 +81,9 @@ class RadialTerms(NamedTuple):
 def radial_terms(kin: PointKinematics, center, velocity, plane) -> RadialTerms:
     """:class:`RadialTerms` of one state (``kin`` unbatched arrays) for ``k`` obstacles.
 
+    ``kin`` is one body point's (arrays ``(3,)``) or row-wise (``(k, 3)``: row ``i`` its own
+    point, the whole-body filter's ``body_rows``).
+
     Args:
         kin: Body-point kinematics (:meth:`~.models.RobotModel.point_kinematics`), odom.
         center: ``(k, 2)`` in-plane obstacle centres [m].
@@ -88,10 +92,11 @@ def radial_terms(kin: PointKinematics, center, velocity, plane) -> RadialTerms:
 
     """
     axes = PLANE_AXES[np.asarray(plane, dtype=np.intp)]
-    p = np.asarray(center, dtype=float) - kin.position[axes]
-    v = np.asarray(velocity, dtype=float) - kin.velocity[axes]
-    a = kin.accel_drift[axes]
-    B = kin.accel_input[axes]  # (k, 2, m)
+    rowwise = np.ndim(kin.position) == 2
+    p = np.asarray(center, dtype=float) - plane_take(kin.position, axes, rowwise)
+    v = np.asarray(velocity, dtype=float) - plane_take(kin.velocity, axes, rowwise)
+    a = plane_take(kin.accel_drift, axes, rowwise)
+    B = plane_take(kin.accel_input, axes, rowwise)  # (k, 2, m)
     d = np.sqrt((p * p).sum(-1))
     at_centre = d == 0.0
     e = p / np.where(at_centre, 1.0, d)[:, None]  # 0 at the centre
@@ -100,6 +105,13 @@ def radial_terms(kin: PointKinematics, center, velocity, plane) -> RadialTerms:
     lf = lf - (e * a).sum(-1)
     lg = -(e[:, :, None] * B).sum(-2)
     return RadialTerms(p, b, lf, lg)
+
+
+def rows_of(kin: PointKinematics, idx) -> PointKinematics:
+    """``kin`` of the rows ``idx``: row-wise kinematics indexed, one point's unchanged."""
+    if np.ndim(kin.position) == 2:
+        return PointKinematics(*(np.asarray(a)[idx] for a in kin))
+    return kin
 
 
 def signed_h(h, clearance, radius, gamma: float):
@@ -144,7 +156,7 @@ def inside_rows(
 
     """
     idx = np.flatnonzero(inside)
-    rad = radial_terms(kin, obs.center[idx], obs.velocity[idx], obs.plane[idx])
+    rad = radial_terms(rows_of(kin, idx), obs.center[idx], obs.velocity[idx], obs.plane[idx])
     G = terms.lg_h.copy()
     c0 = terms.lf_h + gamma * terms.h
     G[idx] = rad.lg

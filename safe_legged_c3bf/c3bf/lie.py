@@ -32,8 +32,10 @@ from .models import PointKinematics, RobotModel
 __all__ = [
     "PLANE_AXES",
     "BarrierTerms",
+    "plane_take",
     "barrier_terms",
     "barrier_terms_scalar",
+    "row_barrier_terms",
     "c3bf_lie_derivatives",
 ]
 
@@ -108,6 +110,41 @@ def _barrier_terms(kin, center, velocity, radius, plane, v_eps) -> BarrierTerms:
     lg = -(dh_dv[..., :, None] * B).sum(-2)
     clearance = (p * p).sum(-1) - r * r
     return BarrierTerms(h, lf, lg, p, v, clearance)
+
+
+def plane_take(arr, axes: np.ndarray, rowwise: bool) -> np.ndarray:
+    """In-plane components of kinematics ``arr`` for rows with plane axes ``axes`` ``(n, 2)``.
+
+    ``rowwise`` False: ``arr`` is one point's ``(3,)`` or ``(3, m)``, the same for every row;
+    True: ``(n, 3)`` or ``(n, 3, m)``, row ``i`` its own point. Returns ``(n, 2)`` or
+    ``(n, 2, m)``.
+    """
+    arr = np.asarray(arr, dtype=float)
+    if not rowwise:
+        return arr[axes]
+    if arr.ndim == 3:
+        return np.take_along_axis(arr, axes[:, :, None], -2)
+    return np.take_along_axis(arr, axes, -1)
+
+
+def row_barrier_terms(kin: PointKinematics, center, velocity, radius, plane, v_eps):
+    """Unchecked barrier terms with row-wise kinematics (row ``i``: its own body point).
+
+    ``kin`` arrays ``(n, 3)`` and ``(n, 3, m)``; ``center``, ``velocity`` ``(n, 2)``; ``radius``,
+    ``plane`` ``(n,)``. The formulas of :func:`barrier_terms` (module docstring), row by row.
+    """
+    axes = PLANE_AXES[np.asarray(plane, dtype=np.intp)]
+    P = np.take_along_axis(kin.position, axes, -1)
+    V = np.take_along_axis(kin.velocity, axes, -1)
+    A = np.take_along_axis(kin.accel_drift, axes, -1)
+    B = np.take_along_axis(kin.accel_input, axes[:, :, None], -2)  # (n, 2, m)
+    r = np.asarray(radius, dtype=float)
+    p = np.asarray(center, dtype=float) - P
+    v = np.asarray(velocity, dtype=float) - V
+    h, dh_dp, dh_dv, _ = _gradient(p, v, r, v_eps)
+    lf = (dh_dp * v).sum(-1) - (dh_dv * A).sum(-1)
+    lg = -(dh_dv[..., :, None] * B).sum(-2)
+    return BarrierTerms(h, lf, lg, p, v, (p * p).sum(-1) - r * r)
 
 
 def c3bf_lie_derivatives(

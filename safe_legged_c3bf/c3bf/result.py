@@ -64,6 +64,10 @@ class FilterResult:
             without ``margin``) inflated circle, in the obstacle's plane: ``||p_rel|| - r``,
             negative inside. (Not ``BarrierTerms.clearance``, which is ``||p_rel||^2 - r^2``
             [m^2].) Zeros for a FAILSAFE raised before the barrier terms were computed.
+            With a whole-body filter (``SafetyFilter(body=...)``) every per-obstacle entry is
+            the worst over the obstacle's (body point, obstacle) rows (``body_rows``).
+        point: ``(n,)`` whole-body filter only: the index in ``RobotBody.points`` of the body
+            point nearest each obstacle (-1 unknown); empty for the single-point filter.
 
     """
 
@@ -78,6 +82,7 @@ class FilterResult:
     solve_time: float
     message: str = ""
     clearance: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    point: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
 
     @property
     def modified(self) -> bool:

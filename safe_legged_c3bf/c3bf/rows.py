@@ -15,7 +15,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .geometry import Obstacles
-from .lie import _barrier_terms, barrier_terms_scalar
+from .lie import _barrier_terms, barrier_terms_scalar, row_barrier_terms
 from .models import PointKinematics
 from .osqp_qp import OSQP_INF
 
@@ -61,11 +61,16 @@ def _gap(clearance, radius, obs: Obstacles) -> np.ndarray:
 def obstacle_terms(kin, obs: Obstacles, radius, v_eps: float, m: int) -> Terms:
     """h, Lf h, Lg h and clearances of every obstacle (``kin`` as tuples, ``m`` inputs).
 
+    ``kin`` may also be row-wise arrays (``(n, 3)``, row ``i`` its own body point).
+
     Up to ``SCALAR_TERMS_MAX`` obstacles the scalar formulas per obstacle
     (``barrier_terms_scalar``, tested against ``barrier_terms``) cost fewer operations
     than the vectorised ones; beyond that numpy is faster.
     """
     n = len(obs)
+    if np.ndim(kin[0]) == 2:  # row-wise kinematics (whole-body filter, ``body_rows``)
+        t = row_barrier_terms(kin, obs.center, obs.velocity, radius, obs.plane, v_eps)
+        return Terms(t.h, t.lf_h, t.lg_h, t.clearance, _gap(t.clearance, radius, obs))
     if 0 < n <= SCALAR_TERMS_MAX:
         fn = barrier_terms_scalar
         rows = [
