@@ -76,13 +76,18 @@ from .filter_inputs import FLOAT_MAX, Bounds, check_bounds, check_weights, check
 from .filter_outputs import failsafe_result, make_result
 from .geometry import Obstacles
 from .inside import INSIDE_REL_CLEARANCE, escape_input, inside_rows, rows_of
+from .lie import reference_directions
 from .models import PointKinematics, RobotModel
 from .osqp_qp import INFEASIBLE, OSQP_INF, RETRYABLE, QPSolvers
 from .result import FilterResult, FilterStatus
 from .rows import FEAS_TOL, ROUND_TOL, Rows, Terms, obstacle_terms, scale_rows, screen_rows
 from .solver_status import describe_osqp_status
 
-__all__ = ["SafetyFilter", "cbf_closed_form"]
+__all__ = ["DIRECTION_HORIZON", "SafetyFilter", "cbf_closed_form"]
+
+DIRECTION_HORIZON = 0.2
+"""Time [s] ahead at which the whole-body filter takes the reference's relative-velocity
+direction for its rows below ``v_eps`` (``lie.row_barrier_terms``)."""
 
 class SafetyFilter:
     """Collision-cone CBF safety filter (C3BF-QP) for one robot model.
@@ -170,6 +175,7 @@ class SafetyFilter:
         if body is not None and not isinstance(body, RobotBody):
             raise InvalidInputError("body must be a RobotBody or None")
         self.body = body
+        self._row_obstacle = None  # whole body, during a call: the obstacle of each row
 
     # ------------------------------------------------------------------ public API
     def filter(
@@ -254,19 +260,27 @@ class SafetyFilter:
             kin = self.model.point_kinematics_tuple(x.tolist(), yaw)
             return self._filter(x, u0, ul, kin, obs, yaw, t0)
         rows = body_rows(self.model, x, yaw, self.body, obs)
-        with np.errstate(all="ignore"):  # overflow etc. is detected and handled explicitly
-            res = self._filter(x, u0, ul, rows.kin, rows.obstacles, yaw, t0)
+        self._row_obstacle = rows.obstacle
+        try:
+            with np.errstate(all="ignore"):  # overflow etc. is detected and handled explicitly
+                res = self._filter(x, u0, ul, rows.kin, rows.obstacles, yaw, t0)
+        finally:
+            self._row_obstacle = None
         return per_obstacle(res, rows, len(obs))
 
     def _filter(self, x, u0, ul, kin, obs: Obstacles, yaw, t0) -> FilterResult:
         """Barrier terms of every obstacle, then the QP (or the inside-a-circle handling)."""
         radius = obs.radius + self.margin
-        terms = obstacle_terms(kin, obs, radius, self.v_eps, self.model.n_u)
+        e = None
+        if self._row_obstacle is not None:  # whole body: the reference's directions at rest
+            e = reference_directions(kin, obs.center, obs.velocity, obs.plane, u0,
+                                     DIRECTION_HORIZON)
+        terms = obstacle_terms(kin, obs, radius, self.v_eps, self.model.n_u, e)
         inside = terms.clearance < INSIDE_REL_CLEARANCE * radius * radius
         if self.margin > 0.0 and inside.any():
             # Inside r + margin: use the exact barrier of the true radius r for those rows.
             radius = np.where(inside, obs.radius, radius)
-            terms = obstacle_terms(kin, obs, radius, self.v_eps, self.model.n_u)
+            terms = obstacle_terms(kin, obs, radius, self.v_eps, self.model.n_u, e)
             inside = terms.clearance < INSIDE_REL_CLEARANCE * radius * radius
         G = terms.lg_h
         c0 = terms.lf_h + self.gamma * terms.h  # constraint: G u + c0 >= 0
@@ -361,7 +375,8 @@ class SafetyFilter:
         idx, rad, terms, G, c0 = inside_rows(
             kin, obs, radius, terms, inside, self.gamma, self.exit_speed
         )
-        names = idx.tolist()
+        names = idx.tolist() if self._row_obstacle is None else sorted(
+            set(self._row_obstacle[idx].tolist()))  # obstacles, not (point, obstacle) rows
         if (rad.speed > 0.0).all():
             res = self._solve(x, u0, ul, yaw, terms, G, c0, t0)
             if res.status is not FilterStatus.FAILSAFE:

@@ -33,6 +33,7 @@ __all__ = [
     "PLANE_AXES",
     "BarrierTerms",
     "plane_take",
+    "reference_directions",
     "barrier_terms",
     "barrier_terms_scalar",
     "row_barrier_terms",
@@ -127,11 +128,22 @@ def plane_take(arr, axes: np.ndarray, rowwise: bool) -> np.ndarray:
     return np.take_along_axis(arr, axes, -1)
 
 
-def row_barrier_terms(kin: PointKinematics, center, velocity, radius, plane, v_eps):
+def row_barrier_terms(kin: PointKinematics, center, velocity, radius, plane, v_eps,
+                      direction=None):
     """Unchecked barrier terms with row-wise kinematics (row ``i``: its own body point).
 
     ``kin`` arrays ``(n, 3)`` and ``(n, 3, m)``; ``center``, ``velocity`` ``(n, 2)``; ``radius``,
     ``plane`` ``(n,)``. The formulas of :func:`barrier_terms` (module docstring), row by row.
+
+    ``direction``: ``(n, 2)`` unit (or zero) vectors ``e``. Below ``v_eps`` (``||v|| <
+    v_eps``) a row with ``e != 0`` uses ``h = <p + s e, v>`` instead of the smooth blend:
+    ``<e, v> <= ||v||``, so it stays below the paper's ``h`` (never less safe), and ``h`` only
+    jumps up where ``||v||`` reaches ``v_eps``. With ``e`` the direction in which the
+    reference moves the relative velocity, a robot at (or near) rest may start along any
+    direction outside the cone; the blend, flat at ``v = 0``, would forbid every direction
+    with a component towards the obstacle's centre, and the exact barrier every direction
+    on the far side of ``v`` (its linearisation at a tiny ``v`` is a half-plane through 0).
+    ``e`` is held constant: ``dh/dp = v + <e, v> p / s``, ``dh/dv = p + s e`` there.
     """
     axes = PLANE_AXES[np.asarray(plane, dtype=np.intp)]
     P = np.take_along_axis(kin.position, axes, -1)
@@ -141,10 +153,33 @@ def row_barrier_terms(kin: PointKinematics, center, velocity, radius, plane, v_e
     r = np.asarray(radius, dtype=float)
     p = np.asarray(center, dtype=float) - P
     v = np.asarray(velocity, dtype=float) - V
-    h, dh_dp, dh_dv, _ = _gradient(p, v, r, v_eps)
+    h, dh_dp, dh_dv, s = _gradient(p, v, r, v_eps)
+    if direction is not None:
+        use = (((v * v).sum(-1) < v_eps * v_eps) & (s > 0.0)
+               & ((direction * direction).sum(-1) > 0.0))
+        if use.any():
+            lin = (direction * v).sum(-1)
+            su = s[use]
+            h = np.where(use, (p * v).sum(-1) + s * lin, h)
+            dh_dp[use] = v[use] + (lin[use] / su)[:, None] * p[use]
+            dh_dv[use] = p[use] + su[:, None] * direction[use]
     lf = (dh_dp * v).sum(-1) - (dh_dv * A).sum(-1)
     lg = -(dh_dv[..., :, None] * B).sum(-2)
     return BarrierTerms(h, lf, lg, p, v, (p * p).sum(-1) - r * r)
+
+
+def reference_directions(kin: PointKinematics, center, velocity, plane, u_ref,
+                         horizon: float) -> np.ndarray:
+    """``(n, 2)`` unit direction of each row's relative velocity ``horizon`` s ahead.
+
+    Under ``u_ref``: ``c_dot - (V + (a_drift + B u_ref) horizon)``, zero where it vanishes.
+    """
+    axes = PLANE_AXES[np.asarray(plane, dtype=np.intp)]
+    V = np.take_along_axis(kin.velocity, axes, -1)
+    acc = kin.accel_drift + kin.accel_input @ np.asarray(u_ref, dtype=float)
+    d = np.asarray(velocity, dtype=float) - V - horizon * np.take_along_axis(acc, axes, -1)
+    norm = np.sqrt((d * d).sum(-1))
+    return d / np.where(norm > 1e-12, norm, np.inf)[:, None]
 
 
 def c3bf_lie_derivatives(

@@ -58,10 +58,11 @@ def _gap(clearance, radius, obs: Obstacles) -> np.ndarray:
     return np.sqrt(clearance + radius * radius) - obs.radius
 
 
-def obstacle_terms(kin, obs: Obstacles, radius, v_eps: float, m: int) -> Terms:
+def obstacle_terms(kin, obs: Obstacles, radius, v_eps: float, m: int, direction=None) -> Terms:
     """h, Lf h, Lg h and clearances of every obstacle (``kin`` as tuples, ``m`` inputs).
 
-    ``kin`` may also be row-wise arrays (``(n, 3)``, row ``i`` its own body point).
+    ``kin`` may also be row-wise arrays (``(n, 3)``, row ``i`` its own body point), then
+    with an optional ``direction`` per row (``lie.row_barrier_terms``).
 
     Up to ``SCALAR_TERMS_MAX`` obstacles the scalar formulas per obstacle
     (``barrier_terms_scalar``, tested against ``barrier_terms``) cost fewer operations
@@ -69,7 +70,8 @@ def obstacle_terms(kin, obs: Obstacles, radius, v_eps: float, m: int) -> Terms:
     """
     n = len(obs)
     if np.ndim(kin[0]) == 2:  # row-wise kinematics (whole-body filter, ``body_rows``)
-        t = row_barrier_terms(kin, obs.center, obs.velocity, radius, obs.plane, v_eps)
+        t = row_barrier_terms(kin, obs.center, obs.velocity, radius, obs.plane, v_eps,
+                              direction)
         return Terms(t.h, t.lf_h, t.lg_h, t.clearance, _gap(t.clearance, radius, obs))
     if 0 < n <= SCALAR_TERMS_MAX:
         fn = barrier_terms_scalar
