@@ -80,3 +80,32 @@ def clearance(robot: SimpleRobot, ob: ScriptedObstacle, t: float, offset: float)
     else:
         d = math.hypot(o.center[0] - px, o.center[2] - robot.z)
     return d - max(o.semi_axes)
+
+
+def body_gap(robot: SimpleRobot, ob: ScriptedObstacle, t: float, params) -> float:
+    """Gap [m] between the obstacle's enclosing circle and what the filter protects.
+
+    ``params.body_model == 'point'``: the paper's circle of radius robot_width/2 (x-y) or
+    robot_height/2 (x-z) about the body point ``offset`` ahead; ``'body'``: the robot's cover
+    (``c3bf.body``), its nearest circle in the obstacle's plane. Negative: they overlap.
+    """
+    from safe_legged_c3bf.c3bf import Plane
+    from safe_legged_c3bf.c3bf.body import robot_body
+
+    if params.body_model == "point":
+        grow = params.robot_width if ob.plane == 0 else params.robot_height
+        offset = params.offset if params.model == "unicycle" else 0.0
+        return clearance(robot, ob, t, offset) - 0.5 * grow
+    o = ob.at(t)
+    c, s = math.cos(robot.yaw), math.sin(robot.yaw)
+    plane = Plane.VERTICAL if ob.plane == 0 else Plane.HORIZONTAL
+    gaps = []
+    for p in robot_body(params.robot_body).points_in(plane):
+        lx, ly, lz = p.offset
+        px = robot.x + lx * c - ly * s
+        if ob.plane == 0:
+            d = math.hypot(o.center[0] - px, o.center[1] - (robot.y + lx * s + ly * c))
+        else:
+            d = math.hypot(o.center[0] - px, o.center[2] - (robot.z + lz))
+        gaps.append(d - max(o.semi_axes) - p.radius)
+    return min(gaps)

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from filter_harness import ScriptedObstacle, SimpleRobot, clearance
+from filter_harness import ScriptedObstacle, SimpleRobot, body_gap
 
 from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
 from safe_legged_c3bf.safety.params import FilterParams
@@ -28,7 +28,7 @@ def run(cycle, robot, obstacles, reference, duration, hold_height=True):
         out = cycle.step(
             t, ref, t, robot.base_state(t), [o.at(t) for o in obstacles], t
         )
-        gaps = [clearance(robot, o, t, cycle.params.offset) for o in obstacles]
+        gaps = [body_gap(robot, o, t, cycle.params) for o in obstacles]
         log.append((t, out, min(gaps) if gaps else math.inf, robot.z))
         for _ in range(10):  # robot integrates at 10x the filter rate
             robot.step(out.command, DT / 10)
@@ -36,11 +36,17 @@ def run(cycle, robot, obstacles, reference, duration, hold_height=True):
 
 
 def min_gap(log):
+    """Least gap [m] between an obstacle and the protected shape (``body_gap``)."""
     return min(g for _, _, g, _ in log)
 
 
-def half_width(params):
-    return 0.5 * params.robot_width
+BODY_MODELS = pytest.mark.parametrize("body_model", ["body", "point"])
+
+
+def known_body_failure(request, body_model: str, reason: str) -> None:
+    """Mark a whole-body case that fails today (issue #16 open): kept, counted, strict."""
+    if body_model == "body":
+        request.applymarker(pytest.mark.xfail(strict=True, reason=reason))
 
 
 @pytest.mark.parametrize(
@@ -52,14 +58,20 @@ def half_width(params):
     ],
     ids=lambda o: o.id,
 )
-def test_vertical_obstacle_avoided_with_filter_and_hit_without(obstacle):
-    params = FilterParams()
+@BODY_MODELS
+def test_vertical_obstacle_avoided_with_filter_and_hit_without(obstacle, body_model, request):
+    if obstacle.id == "static":
+        known_body_failure(request, body_model, "#16: RELAXED spells at rest, h dips to -0.045")
+    if obstacle.id == "head_on":
+        known_body_failure(request, body_model, "#16: the QP backs up on the cone's other side "
+                           "than the steering chose; the walker reaches the inflated circle")
+    params = FilterParams(body_model=body_model)
     ref = VelocityCommand(0.5, 0.0, 0.0, 0.0)
     log = run(SafetyFilterCycle(params), SimpleRobot(), [obstacle], ref, 16.0)
     statuses = {out.status for _, out, *_ in log}
     assert CycleStatus.ACTIVE in statuses
     assert CycleStatus.EMERGENCY_BRAKE not in statuses
-    assert min_gap(log) > half_width(params), "body point entered the robot-inflated obstacle"
+    assert min_gap(log) > 0.0, "the protected shape touched the obstacle"
     # A mover may start the run inside the cone (h0 < 0): the CBF condition then guarantees
     # h(t) >= h0 exp(-gamma t); otherwise h stays >= 0 (tolerance: discretisation, robot lag).
     hs = [(t, float(out.result.h.min())) for t, out, *_ in log if out.result.h.size]
@@ -69,10 +81,11 @@ def test_vertical_obstacle_avoided_with_filter_and_hit_without(obstacle):
     baseline = SafetyFilterCycle(params.updated(enabled=False))
     off = run(baseline, SimpleRobot(), [obstacle], ref, 16.0)
     assert {out.status for _, out, *_ in off} == {CycleStatus.PASS_THROUGH}
-    assert min_gap(off) < half_width(params), "scenario is not a collision course without filter"
+    assert min_gap(off) < 0.0, "scenario is not a collision course without filter"
 
 
-def test_ten_obstacles_never_entered():
+@BODY_MODELS
+def test_ten_obstacles_never_entered(body_model):
     rng = np.random.default_rng(3)
     obstacles = [
         ScriptedObstacle(
@@ -83,32 +96,35 @@ def test_ten_obstacles_never_entered():
         )
         for i in range(10)
     ]
-    params = FilterParams()
+    params = FilterParams(body_model=body_model)
     log = run(SafetyFilterCycle(params), SimpleRobot(), obstacles, VelocityCommand(0.5), 20.0)
-    assert min_gap(log) > half_width(params)
+    assert min_gap(log) > 0.0
 
 
-def test_bar_ahead_ducks_and_rises_again():
+@BODY_MODELS
+def test_bar_ahead_ducks_and_rises_again(body_model, request):
+    known_body_failure(request, body_model, "#16: the whole body brakes for the bar instead "
+                       "of ducking under it")
     bar = ScriptedObstacle("bar", np.array([2.5, 0.0, 0.42]), semi_axes=(0.05, 0.05), plane=1,
                            extent=3.0)
-    params = FilterParams()
+    params = FilterParams(body_model=body_model)
     robot = SimpleRobot()
     log = run(SafetyFilterCycle(params), robot, [bar], VelocityCommand(0.4), 16.0)
     vz = np.array([out.command.vz for _, out, *_ in log])
     assert vz.min() < -0.02, "the filter never asked to duck"
-    gap_needed = 0.5 * params.robot_height
-    assert min_gap(log) > gap_needed
+    assert min_gap(log) > 0.0
     assert robot.x > 3.5, "the robot did not pass under the bar"
     assert abs(robot.z - Z_NOMINAL) < 0.01, "the robot did not regain its height"
 
 
-def test_bar_too_low_to_duck_under_brakes_instead():
+@BODY_MODELS
+def test_bar_too_low_to_duck_under_brakes_instead(body_model):
     bar = ScriptedObstacle("low", np.array([2.5, 0.0, 0.30]), semi_axes=(0.05, 0.05), plane=1,
                            extent=3.0)
-    params = FilterParams()
+    params = FilterParams(body_model=body_model)
     robot = SimpleRobot()
     log = run(SafetyFilterCycle(params), robot, [bar], VelocityCommand(0.4), 16.0)
-    assert min_gap(log) > 0.5 * params.robot_height
+    assert min_gap(log) > 0.0
     assert min(z for *_, z in log) > params.min_height - 0.02
     assert robot.x < 2.5
 
@@ -169,18 +185,20 @@ def test_stale_reference_becomes_zero():
     assert abs(out.command.vx) < 1e-3
 
 
-def test_inside_an_obstacle_brakes_and_gets_out():
-    params = FilterParams()
+@BODY_MODELS
+def test_inside_an_obstacle_brakes_and_gets_out(body_model):
+    params = FilterParams(body_model=body_model)
     cycle = SafetyFilterCycle(params)
     robot = SimpleRobot(vx=0.3)
     inside = ScriptedObstacle("here", np.array([0.35, 0.0, 0.5]), semi_axes=(0.2, 0.2))
-    radius = 0.2 + 0.5 * params.robot_width
+    assert body_gap(robot, inside, 0.0, params) < 0.0
     emergency_speeds = []
-    for k in range(200):
+    for k in range(int(10.0 * RATE)):  # the whole body starts deeper inside than one point
         t = k * DT
         out = cycle.step(t, VelocityCommand(0.5), t, robot.base_state(t), [inside.at(t)], t)
         if out.status is CycleStatus.EMERGENCY_BRAKE:
             emergency_speeds.append(out.command.vx)
+            assert "obstacle(s) [0]" in out.text
         elif emergency_speeds:
             break
         robot.step(out.command, DT)
@@ -188,7 +206,7 @@ def test_inside_an_obstacle_brakes_and_gets_out():
     # It brakes while it would go deeper; once it is leaving, it keeps leaving (#14).
     assert min(emergency_speeds) < 0.3, "did not brake"
     assert out.status is not CycleStatus.EMERGENCY_BRAKE, "never got out"
-    assert clearance(robot, inside, t, params.offset) > radius - 0.2 - 1e-6
+    assert body_gap(robot, inside, t, params) > 0.0
 
 
 def test_infeasible_constraints_give_a_flagged_relaxed_solution():
@@ -221,12 +239,13 @@ def test_unicycle_model_never_passes_on_a_side_step():
     assert out.command.vy == 0.0
 
 
-def test_holonomic_model_side_steps_around_an_obstacle():
-    params = FilterParams(model="holonomic", offset=0.0)
+@BODY_MODELS
+def test_holonomic_model_side_steps_around_an_obstacle(body_model):
+    params = FilterParams(body_model=body_model, model="holonomic", offset=0.0)
     obstacle = ScriptedObstacle("static", np.array([3.0, 0.05, 0.5]))
     log = run(SafetyFilterCycle(params), SimpleRobot(holonomic=True), [obstacle],
               VelocityCommand(0.5), 16.0)
-    assert min_gap(log) > half_width(params)
+    assert min_gap(log) > 0.0
     assert any(abs(out.command.vy) > 0.02 for _, out, *_ in log)
 
 
@@ -257,7 +276,7 @@ def test_repeated_or_backward_time_stamps_stay_finite():
         assert np.all(np.isfinite(out.command.as_array()))
 
 
-def _walk_to_goal_past_a_pillar(deadlock_yaw_rate: float, lateral: float):
+def _walk_to_goal_past_a_pillar(deadlock_yaw_rate: float, lateral: float, body_model: str):
     """Goal planner -> cycle -> robot from rest, a pillar 1.7 m dead ahead; (log, robot)."""
     from safe_legged_c3bf.planning.reference_planner import (
         PlannerConfig,
@@ -271,7 +290,7 @@ def _walk_to_goal_past_a_pillar(deadlock_yaw_rate: float, lateral: float):
     def reference(t, robot):
         return planner.compute(RobotPose(robot.x, robot.y, robot.yaw, robot.z), t)
 
-    params = FilterParams(deadlock_yaw_rate=deadlock_yaw_rate)
+    params = FilterParams(deadlock_yaw_rate=deadlock_yaw_rate, body_model=body_model)
     pillar = ScriptedObstacle("pillar", np.array([1.7, lateral, 0.5]), semi_axes=(0.25, 0.25))
     robot = SimpleRobot(tau=0.15)
     return run(SafetyFilterCycle(params), robot, [pillar], reference, 25.0), robot
@@ -279,18 +298,19 @@ def _walk_to_goal_past_a_pillar(deadlock_yaw_rate: float, lateral: float):
 
 @pytest.mark.parametrize("lateral", [-0.1, -0.05, 0.0, 0.05, 0.1])
 def test_deadlock_in_front_of_a_pillar_is_resolved_by_turning(lateral):
+    body_model = "point"  # the deadlock turn is the point model's; the body model steers
     # Without the deadlock turn the robot stands in front of the pillar for most of the run (at
     # rest h = 0 and the QP can only brake: a stable equilibrium of the CBF-QP) and is still
     # > 1 m from the goal after 25 s; with it, it arrives (about 20 s; 15.5 s without pillar).
-    log, robot = _walk_to_goal_past_a_pillar(0.0, lateral)
+    log, robot = _walk_to_goal_past_a_pillar(0.0, lateral, body_model)
     assert math.hypot(robot.x - 6.0, robot.y) > 1.0
-    log, robot = _walk_to_goal_past_a_pillar(0.5, lateral)
+    log, robot = _walk_to_goal_past_a_pillar(0.5, lateral, body_model)
     assert math.hypot(robot.x - 6.0, robot.y) < 0.3, (robot.x, robot.y)
     assert min_gap(log) > 0.0
     assert any("deadlock" in out.text for _, out, *_ in log)
 
 
-def _between_three_obstacles(deadlock_yaw_rate: float):
+def _between_three_obstacles(deadlock_yaw_rate: float, body_model: str):
     """Random quadruped seed 7 at t = 25 s: at rest between two pillars and a stopped mover,
     facing away from the goal; the planner turns in place (right, the short way) and that
     turn swings the body point towards a pillar."""
@@ -312,14 +332,28 @@ def _between_three_obstacles(deadlock_yaw_rate: float):
         ScriptedObstacle("mover", np.array([0.89, 3.93, 0.5]), semi_axes=(0.286, 0.259)),
     ]
     robot = SimpleRobot(x=0.62, y=3.24, yaw=math.radians(-113.0), tau=0.15)
-    params = FilterParams(deadlock_yaw_rate=deadlock_yaw_rate)
+    params = FilterParams(deadlock_yaw_rate=deadlock_yaw_rate, body_model=body_model)
     return run(SafetyFilterCycle(params), robot, obstacles, reference, 30.0), robot
 
 
-def test_deadlock_of_a_blocked_turn_in_place_is_resolved():
-    log, robot = _between_three_obstacles(0.0)
+@pytest.mark.parametrize("lateral", [-0.1, -0.05, 0.0, 0.05, 0.1])
+def test_whole_body_steers_past_a_pillar_dead_ahead_from_rest(lateral, request):
+    """Cone steering turns the reference out of the cone: at the goal, no deadlock turn."""
+    if lateral < 0.1:
+        known_body_failure(request, "body", "#16: the cover grazes the pillar (gap -0.02 m)")
+    log, robot = _walk_to_goal_past_a_pillar(0.0, lateral, "body")
+    assert math.hypot(robot.x - 6.0, robot.y) < 0.3, (robot.x, robot.y)
+    assert min_gap(log) > 0.0
+    assert any("steering" in out.text for _, out, *_ in log)
+
+
+@BODY_MODELS
+def test_deadlock_of_a_blocked_turn_in_place_is_resolved(body_model, request):
+    known_body_failure(request, body_model, "#16: the body model has no deadlock turn; "
+                       "between three obstacles the steering alone does not get it out")
+    log, robot = _between_three_obstacles(0.0, body_model)
     assert math.hypot(robot.x - 0.62, robot.y - 3.24) < 0.05  # stood still for 30 s
-    log, robot = _between_three_obstacles(0.5)
+    log, robot = _between_three_obstacles(0.5, body_model)
     assert math.hypot(robot.x + 1.03, robot.y - 6.35) < 0.3, (robot.x, robot.y)
     assert min_gap(log) > 0.0
     assert any("deadlock" in out.text for _, out, *_ in log)

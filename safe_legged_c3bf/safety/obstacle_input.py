@@ -176,12 +176,16 @@ def to_c3bf_obstacles(
     horizontal_y_margin: float,
     robot_yaw: float = 0.0,
     tie_break: float = 0.0,
+    bar_half_width: float | None = None,
 ) -> tuple[Obstacles, list[str]]:
     """Inflated circles for the C3BF filter, predicted ``dt_predict`` s ahead.
 
     A horizontal bar is kept only while the robot's y lies within its extent along y, grown
     by half the robot width and ``horizontal_y_margin``: beside the bar there is nothing to
-    duck under. Returns the circles and the ids of the obstacles kept, in order.
+    duck under (``bar_half_width`` [m], default ``robot_width / 2``). Returns the circles and
+    the ids of the obstacles kept, in order. ``robot_width`` and ``robot_height`` are the
+    diameters [m] vertical and horizontal circles grow by (0 for the whole-body filter, which
+    grows them by each body point's radius).
 
     Symmetry breaking: dead ahead of a unicycle the barrier's sensitivity to steering is
     exactly zero, so a head-on obstacle can only be braked for (and a faster mover cannot be
@@ -213,7 +217,8 @@ def to_c3bf_obstacles(
     vel = obstacles.velocity
     size = obstacles.size
     vertical = plane == int(Plane.VERTICAL)
-    half_span = 0.5 * obstacles.extent + 0.5 * robot_width + horizontal_y_margin
+    half_width = 0.5 * robot_width if bar_half_width is None else bar_half_width
+    half_span = 0.5 * obstacles.extent + half_width + horizontal_y_margin
     keep = vertical | (np.abs(robot_y - c[:, 1]) <= half_span)
     # Vertical: (x, y) moved tie_break to the robot's right; bars: (x, z), kept only
     # while the robot's y is within their extent (see above).

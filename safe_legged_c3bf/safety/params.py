@@ -22,6 +22,8 @@ from safe_legged_c3bf.interfaces.typed_params import (
 )
 
 MODELS = ("unicycle", "holonomic")
+BODY_MODELS = ("body", "point")
+ROBOT_BODIES = ("a1", "biped")
 
 
 @dataclass(frozen=True)
@@ -36,6 +38,16 @@ class FilterParams(TypedParams):
     model: str = param(
         "unicycle", "-", "dynamics model: 'unicycle' (the paper's, with body-point offset "
         "'offset') or 'holonomic' (unitless)", one_of(*MODELS),
+    )
+    body_model: str = param(
+        "point", "-", "'body': every (body point, obstacle) pair of the robot's cover "
+        "(robot_body) is a constraint, the obstacles grown by safety_margin and each point's "
+        "radius (robot_width, robot_height and offset unused); 'point': the paper's single "
+        "body point 'offset' ahead with circles grown by robot_width/2 and robot_height/2",
+        one_of(*BODY_MODELS),
+    )
+    robot_body: str = param(
+        "a1", "-", "the robot whose cover (c3bf.body) the 'body' model uses", one_of(*ROBOT_BODIES)
     )
     offset: float = param(
         0.10, "m", "body-point offset l ahead of the robot's centre, unicycle only: larger "
@@ -55,6 +67,10 @@ class FilterParams(TypedParams):
     )
     safety_margin: float = param(
         0.05, "m", "extra inflation of every obstacle radius", NON_NEGATIVE
+    )
+    exit_speed: float = param(
+        0.05, "m/s", "radial speed at which a robot found inside an obstacle's inflated circle "
+        "is made to leave it (at least, asymptotically; 0: only never deeper)", NON_NEGATIVE,
     )
     rate: float = param(50.0, "Hz", "filter cycles per second of sim time", POSITIVE)
     k_v: float = param(2.0, "1/s", "reference tracking gain on speed: u_ref = k (v_ref - v)",
@@ -109,6 +125,21 @@ class FilterParams(TypedParams):
         0.03, "m", "each vertical obstacle's circle is shifted this far to the robot's right "
         "and grown by as much, so that dead-ahead obstacles are passed on the left instead of "
         "only braked for (see obstacle_input.to_c3bf_obstacles)", NON_NEGATIVE,
+    )
+    steer_horizon: float = param(
+        20.0, "s", "cone steering (whole-body model, unicycle): a reference heading whose path "
+        "meets an obstacle within this time is turned to the nearest free heading before the QP "
+        "(safety/cone_steering.py); 0: off. The C3BF itself is distance-free (it refuses to "
+        "enter a cone at any distance), so a short horizon leaves far cones to the QP, which "
+        "brakes", NON_NEGATIVE,
+    )
+    steer_lookahead: float = param(
+        0.5, "s", "cone steering: the reference heading is yaw + reference yaw rate times "
+        "this (the planner's 1 / k_heading)", NON_NEGATIVE,
+    )
+    steer_gain: float = param(
+        1.5, "1/s", "cone steering: yaw rate per radian between the free heading and the yaw",
+        POSITIVE,
     )
     deadlock_speed: float = param(
         0.05, "m/s", "the robot is deadlocked when the filter holds its commanded forward "

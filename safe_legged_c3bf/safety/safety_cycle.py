@@ -40,9 +40,11 @@ from safe_legged_c3bf.c3bf import (
     SafetyFilter,
     UnicycleHeightModel,
 )
+from safe_legged_c3bf.c3bf.body import robot_body
 from safe_legged_c3bf.interfaces.base_state import BaseState
 from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
 from safe_legged_c3bf.interfaces.rotations import yaw_from_quaternion
+from safe_legged_c3bf.safety.cone_steering import ConeSteering
 from safe_legged_c3bf.safety.obstacle_input import (
     ObstacleInput,
     ObstacleSet,
@@ -147,14 +149,65 @@ class SafetyFilterCycle:
             model = HolonomicHeightModel()
             limits = np.array([p.max_accel, p.max_accel, p.max_vertical_accel])
         self._limits = limits
+        self._body = robot_body(p.robot_body) if p.body_model == "body" else None
+        self._steering = ConeSteering(
+            p.steer_horizon, self._steer_radius(), p.steer_lookahead, p.steer_gain
+        )
         self.filter = SafetyFilter(
-            model, gamma=p.gamma, weights=np.array(p.weights), u_min=-limits, u_max=limits
+            model, gamma=p.gamma, weights=np.array(p.weights), u_min=-limits, u_max=limits,
+            body=self._body, exit_speed=p.exit_speed,
         )
 
     def set_params(self, params: FilterParams) -> None:
         """Replace the parameters (validated) and rebuild the QP."""
         self.params = params.validate()
         self._build()
+
+    def _steer_radius(self) -> float:
+        """The robot's disc for cone steering [m]: its cover's half width (whole body).
+
+        0 for the point model (its circles are already grown by robot_width / 2).
+        """
+        if self._body is None:
+            return 0.0
+        off, rad, pl = self._body.arrays
+        vertical = pl == 0
+        return float((np.abs(off[vertical, 1]) + rad[vertical]).max())
+
+    def _steer(self, t: float, ref_arr: np.ndarray, circles, pos, yaw: float) -> str:  # noqa: ANN001
+        """Cone steering of the reference (whole body, unicycle; ``cone_steering``); what it did.
+
+        The point model keeps the paper's filter with its tie-break and deadlock turn.
+        """
+        p = self.params
+        vertical = np.asarray(circles.plane) == 0
+        if (self._body is None or p.model != "unicycle" or p.steer_horizon <= 0.0
+                or not vertical.any()):
+            return ""
+        out = self._steering.steer(
+            t, pos, yaw, float(ref_arr[0]), float(ref_arr[3]), circles.center[vertical],
+            circles.velocity[vertical], circles.radius[vertical], p.max_yaw_rate,
+        )
+        if out.side == 0:
+            return "" if out.free else " (no free heading: following)"
+        ref_arr[0], ref_arr[3] = out.vx, out.yaw_rate
+        return f" (steering {'left' if out.side > 0 else 'right'} out of a collision cone)"
+
+    def _inflation(self) -> tuple[float, float]:
+        """Diameters [m] the obstacles grow by in x-y and x-z before the filter sees them.
+
+        The whole-body filter grows them by each body point's radius itself: 0 here.
+        """
+        if self._body is not None:
+            return 0.0, 0.0
+        return self.params.robot_width, self.params.robot_height
+
+    @property
+    def _bar_half_width(self) -> float:
+        """Half the robot's width [m] for the lateral extent of bars."""
+        if self._body is not None:
+            return self._body.half_width
+        return 0.5 * self.params.robot_width
 
     @property
     def commanded(self) -> VelocityCommand:
@@ -242,8 +295,8 @@ class SafetyFilterCycle:
         pos = base.position
         try:  # obstacles predicted to now from their stamp
             circles, ids = to_c3bf_obstacles(
-                obstacles, t - obstacles_time, float(pos[1]), p.robot_width, p.robot_height,
-                p.safety_margin, p.horizontal_y_margin, yaw, p.tie_break,
+                obstacles, t - obstacles_time, float(pos[1]), *self._inflation(),
+                p.safety_margin, p.horizontal_y_margin, yaw, p.tie_break, self._bar_half_width,
             )
         except InvalidInputError as err:
             return self._braked(dt, CycleStatus.INVALID_INPUT, f"rejected obstacles: {err}",
@@ -323,7 +376,9 @@ class SafetyFilterCycle:
         """The C3BF QP on the reference, integrated into the command (fresh inputs)."""
         p, v = self.params, self._v
         ref_arr = ref.as_array()  # vx, vy, vz, wz
-        deadlocked = p.model == "unicycle" and self._deadlock_turn(t, ref_arr, circles, pos, yaw)
+        steered = self._steer(t, ref_arr, circles, pos, yaw)
+        deadlocked = (p.model == "unicycle" and self._body is None  # body: cone steering
+                      and self._deadlock_turn(t, ref_arr, circles, pos, yaw))
         state, u_ref, idx = self._model_problem(ref_arr, pos, yaw)
         u_min, u_max = self._bounds(v, measured, float(pos[2]), dt, idx)
         u_ref_clipped = np.minimum(np.maximum(u_ref, u_min), u_max)  # np.clip, less overhead
@@ -350,6 +405,7 @@ class SafetyFilterCycle:
         status = _FROM_FILTER[result.status]
         self._held_back = status is not CycleStatus.INACTIVE
         text = result.message or status.name.lower()
+        text += steered
         if deadlocked:
             text += f" (deadlock: turning {'left' if self._detour_side > 0 else 'right'})"
         return CycleOutput(

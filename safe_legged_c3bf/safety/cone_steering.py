@@ -1,0 +1,128 @@
+"""Cone steering: the reference's heading turned out of the obstacles' collision cones.
+
+The C3BF keeps the robot's relative velocity out of each obstacle's collision cone, but the
+QP is myopic: it minimises the change to the reference input, so a reference heading straight
+into a cone is braked, not turned, and a robot at rest in front of an obstacle stays there
+(every barrier is 0 at rest and only forbids moving towards the obstacles). This stage, in
+front of the QP, shapes the reference of a unicycle instead: it keeps the reference where its
+heading is free, and otherwise turns it to the free heading nearest the one it asked for
+(velocity obstacles with a time horizon, the same cones the barrier uses). The QP still filters
+the shaped reference, so no barrier constraint is weakened; the planner stays
+obstacle-agnostic.
+
+Geometry (odom, m, m/s, rad): the robot is a disc of radius ``robot_radius`` about its base
+(for the whole-body filter its cover's half width, not its length: turning towards a free
+heading is what the disc decides); obstacle ``i`` a circle of radius ``r_i`` at ``c_i``
+moving at ``w_i``. Heading ``psi`` at speed ``v`` is blocked by obstacle ``i`` when, with
+``p = c_i - x`` and ``v_rel = w_i - v (cos psi, sin psi)``, the relative path
+``p + v_rel t`` comes within ``r_i + robot_radius`` for some ``t`` in ``[0, horizon]``.
+Headings are searched on a grid of ``heading_step`` around the reference heading ``psi_ref =
+yaw + wz_ref * lookahead``; the side chosen last is preferred for ``side_memory`` s.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["SWITCH_MARGIN", "ConeSteering", "Steer", "blocked_headings"]
+
+SWITCH_MARGIN = math.radians(45.0)
+"""The kept side is left only for a side whose free heading is this much nearer [rad]."""
+
+
+@dataclass(frozen=True)
+class Steer:
+    """A shaped reference: forward speed [m/s], yaw rate [rad/s], and what was done."""
+
+    vx: float
+    yaw_rate: float
+    side: int  # +1 turned left of the reference heading, -1 right, 0 unchanged
+    free: bool  # a free heading was found (False: the reference is kept, the QP brakes)
+
+
+def blocked_headings(psi, speed, p, w, radius, horizon) -> np.ndarray:
+    """``(k,)`` bool: heading ``psi[j]`` at ``speed`` meets some obstacle within ``horizon``.
+
+    Args:
+        psi: ``(k,)`` candidate headings [rad].
+        speed: Robot speed along the heading [m/s] (> 0).
+        p: ``(n, 2)`` obstacle centres minus the robot position [m].
+        w: ``(n, 2)`` obstacle velocities [m/s].
+        radius: ``(n,)`` sum of obstacle and robot radii [m].
+        horizon: Look-ahead time [s].
+
+    """
+    d = np.stack([np.cos(psi), np.sin(psi)], -1)  # (k, 2)
+    v_rel = w[None, :, :] - speed * d[:, None, :]  # (k, n, 2)
+    vv = (v_rel * v_rel).sum(-1)
+    pv = (p[None] * v_rel).sum(-1)
+    t_star = np.clip(-pv / np.where(vv > 1e-12, vv, 1.0), 0.0, horizon)  # closest approach
+    closest = p[None] + v_rel * t_star[..., None]
+    hit = (closest * closest).sum(-1) < radius[None] ** 2
+    inside = (p * p).sum(-1) < radius**2
+    # Already overlapping (the QP's inside handling answers): blocks only approaching headings.
+    hit = np.where(inside[None], pv < 0.0, hit)
+    return hit.any(axis=1)
+
+
+class ConeSteering:
+    """Shapes a unicycle's reference (see the module docstring); keeps the chosen side."""
+
+    def __init__(self, horizon: float, robot_radius: float, lookahead: float,
+                 heading_gain: float, heading_step: float = math.radians(5.0),
+                 side_memory: float = 3.0) -> None:
+        """Configure the steering (units in the arguments' descriptions).
+
+        ``horizon`` [s], ``robot_radius`` [m], ``lookahead`` [s] (reference heading = yaw +
+        wz_ref * lookahead), ``heading_gain`` [1/s] (yaw rate per rad of heading error),
+        ``heading_step`` [rad], ``side_memory`` [s].
+        """
+        self.horizon, self.robot_radius = horizon, robot_radius
+        self.lookahead, self.heading_gain = lookahead, heading_gain
+        self.side_memory = side_memory
+        n = int(math.ceil(math.pi / heading_step))
+        offsets = heading_step * np.arange(1, n + 1)
+        self._left, self._right = offsets, -offsets
+        self._side, self._side_time = 0, -math.inf
+
+    def steer(self, t: float, pos, yaw: float, vx_ref: float, wz_ref: float,
+              centers, velocities, radii, max_yaw_rate: float) -> Steer:
+        """The shaped reference at time ``t`` [s] (see :class:`Steer`)."""
+        if vx_ref <= 1e-3 or len(radii) == 0 or self.horizon <= 0.0:
+            return Steer(vx_ref, wz_ref, 0, True)
+        p = np.asarray(centers, dtype=float) - np.asarray(pos, dtype=float)[:2]
+        w = np.asarray(velocities, dtype=float)
+        r = np.asarray(radii, dtype=float) + self.robot_radius
+        psi_ref = yaw + wz_ref * self.lookahead
+        if not blocked_headings(np.array([psi_ref]), vx_ref, p, w, r, self.horizon)[0]:
+            return Steer(vx_ref, wz_ref, 0, True)
+        side = self._pick_side(t, psi_ref, vx_ref, p, w, r)
+        if side is None:
+            return Steer(vx_ref, wz_ref, 0, False)
+        offset_side, offset = side
+        error = math.remainder(psi_ref + offset - yaw, math.tau)
+        wz = max(-max_yaw_rate, min(max_yaw_rate, self.heading_gain * error))
+        # Forward only along a free heading: from a heading inside a cone, turn in place first
+        # (the barrier would refuse the forward part and, with it, most of the turn).
+        if blocked_headings(np.array([yaw]), vx_ref, p, w, r, self.horizon)[0]:
+            return Steer(0.0, wz, offset_side, True)
+        return Steer(vx_ref * max(math.cos(error), 0.0), wz, offset_side, True)
+
+    def _pick_side(self, t, psi_ref, speed, p, w, r) -> tuple[int, float] | None:
+        """(side, heading offset [rad]) of the nearest free heading; the kept side first."""
+        best = {}
+        for side, offsets in ((1, self._left), (-1, self._right)):
+            free = ~blocked_headings(psi_ref + offsets, speed, p, w, r, self.horizon)
+            if free.any():
+                best[side] = float(offsets[int(np.argmax(free))])
+        if not best:
+            return None
+        kept = self._side if t - self._side_time <= self.side_memory else 0
+        side = min(best, key=lambda s: abs(best[s]))
+        if kept in best and abs(best[kept]) <= abs(best[side]) + SWITCH_MARGIN:
+            side = kept  # no dithering between two sides of about the same detour
+        self._side, self._side_time = side, t
+        return side, best[side]
