@@ -32,7 +32,18 @@ NAMED_SCENARIOS = PAPER_SCENARIOS | {
     "quadruped_head_on": "head_on",
     "quadruped_crossing": "crossing",
     "quadruped_bar_and_pillar": "bar_and_pillar",
+    # Issue #16: what a single body point misses (doc/evaluation.md, Scenarios).
+    "quadruped_low_bar": "impassable",
+    "biped_low_bar": "impassable",
+    "quadruped_bar_rising": "bar_rising",
+    "quadruped_gap": "gap",
+    "quadruped_wall": "wall",
+    "quadruped_crowd": "crowd",
+    "biped_crowd": "crowd",
 }
+#: Named scenarios whose straight path clears every obstacle (the unfiltered robot passes
+#: untouched): they test that the filter does not block what the body fits past.
+CLEAR_PATH_SCENARIOS = frozenset({"quadruped_wall"})
 CI_SCENARIO = "quadruped_ci"
 SUITES = ("paper", "named", "random-quadruped", "random-biped", "all", "ci")
 DEFAULT_RANDOM_SEEDS = 5
