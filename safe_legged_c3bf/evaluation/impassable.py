@@ -202,7 +202,7 @@ class HeldStop:
 
 def held_stop(scenario: Scenario, odom: np.ndarray, blockers: list[Blocker],
               window: float = CREEP_WINDOW, creep: float = CREEP_BOUND) -> HeldStop | None:
-    """Did the robot stop before the first blocker and hold it (ground-truth ``odom``)?
+    """Whether the robot stopped before the first blocker and held it (ground-truth ``odom``).
 
     ``odom``: rows (t, x, y, ...) of the base in odom over the run. None without blockers or
     when the run is shorter than ``window``. Collisions are judged by the caller.

@@ -55,8 +55,9 @@ def obstacle_gaps(
     """Per obstacle: how far the nominal straight-line robot stays from colliding with it (m).
 
     Vertical obstacles: min over time of (distance to the ellipse - half_width), so walls and
-    benches count by their real shape; negative means the unfiltered robot runs into it. Horizontal bars: (underside height -
-    trunk top) where the bar spans the path, +inf when it does not. Uses
+    benches count by their real shape; negative means the unfiltered robot runs into it.
+    Horizontal bars: (underside height - trunk top) where the bar spans the path, +inf when
+    it does not. Uses
     :class:`~safe_legged_c3bf.sim.obstacles.MotionScript` for the scripted motion.
     """
     p = profile or profile_for(scenario.robot.kind)
@@ -78,7 +79,9 @@ def obstacle_gaps(
     return gaps
 
 
-def ellipse_distance(points: np.ndarray, semi_axes, orientation: float, n: int = 180) -> np.ndarray:
+def ellipse_distance(
+    points: np.ndarray, semi_axes, orientation: float, n: int = 180
+) -> np.ndarray:
     """Distance (m) of ``(k, 2)`` points, relative to an ellipse's centre, to the ellipse.
 
     Negative inside (minus the distance to the boundary). The boundary is sampled at ``n``

@@ -1,4 +1,4 @@
-"""Runs no controller could have kept collision-free: a mover driven into a robot too slow to escape.
+"""Runs no controller could have kept collision-free: a mover driven into a slow robot.
 
 Definition (doc/evaluation.md, "Unsurvivable runs"). A mover (a vertical obstacle whose script
 moves it, tall enough to reach the trunk) makes a run **unsurvivable** when, at some
@@ -117,7 +117,7 @@ def reach_box(limits: EscapeLimits, horizon: float, dt: float = DT) -> np.ndarra
 
 
 def reveal_times(obs: ObstacleConfig, duration: float, dt: float = DT) -> list[float]:
-    """t = 0 and the times (s) at which ``obs``'s scripted velocity changes."""
+    """The reveal times (s) of ``obs``: t = 0 and whenever its scripted velocity changes."""
     from safe_legged_c3bf.sim.obstacles import MotionScript
 
     script = MotionScript(obs.position, obs.motion)
