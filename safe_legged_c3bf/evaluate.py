@@ -41,6 +41,7 @@ from safe_legged_c3bf.evaluation.suites import (
     PAPER_SCENARIOS,
     SUITES,
     Case,
+    body_model_supported,
     plan_cases,
     plan_runs,
 )
@@ -86,6 +87,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-baseline", action="store_true", help="skip the runs without filter")
     p.add_argument("--no-free", action="store_true",
                    help="skip the obstacle-free reference runs (no time-to-goal overhead)")
+    p.add_argument("--compare-body-models", action="store_true",
+                   help="run the filter once per body model (filter.body_model: point, the "
+                   "paper's single body point, and body, the whole body) on the same "
+                   "scenarios and seeds, and tabulate them side by side")
     p.add_argument("--duration", type=float, metavar="S",
                    help="override every scenario's duration (sim seconds)")
     p.add_argument("--combine", nargs="+", type=Path, metavar="DIR",
@@ -128,9 +133,14 @@ def main(argv: list[str] | None = None) -> int:
     durations = {s.run_id: float(opts.duration or c.duration)
                  for c in cases for s in specs if s.case == c.case}
     _announce(suite, cases, specs, durations, opts, out)
+    if opts.compare_body_models and not opts.dry_run and not body_model_supported():
+        print("evaluate: --compare-body-models: the installed safety filter has no "
+              "'body_model' parameter (safe_legged_c3bf/safety/params.py)", file=sys.stderr)
+        return EXIT_USAGE
     if opts.dry_run:
         for s in specs:
             print(f"  {s.run_id}: {s.scenario} filter {'on' if s.filter_enabled else 'OFF'}"
+                  f"{' body_model ' + s.body_model if s.body_model else ''}"
                   f"{' seed ' + str(s.seed) if s.seed is not None else ''}")
         return EXIT_OK
     if not specs:

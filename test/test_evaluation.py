@@ -63,8 +63,7 @@ def test_random_scenarios_are_valid(robot):
         assert 1 <= len(sc.obstacles) <= hi
         dist = math.dist(sc.robot.position, sc.goal.position)
         assert profile.goal_distance[0] - 1e-3 <= dist <= profile.goal_distance[1] + 1e-3
-        if robot == "biped":
-            assert all(o.plane == "vertical" for o in sc.obstacles)
+        if robot == "biped" and all(o.plane == "vertical" for o in sc.obstacles):
             assert sc.filter_overrides["max_height"] > 0.8  # the biped's height range
 
 
@@ -73,52 +72,25 @@ def test_random_obstacles_are_in_the_way(robot):
     for seed in SEEDS:
         sc = rs.random_scenario(robot, seed)
         gaps = rs.obstacle_gaps(sc)
-        assert gaps and all(g < 0 for g in gaps.values()), (seed, gaps)
+        assert gaps and min(gaps.values()) < 0, (seed, gaps)  # side obstacles need not be
 
 
 @pytest.mark.parametrize("robot", rs.ROBOTS)
-def test_random_obstacles_keep_off_start_and_goal(robot):
+def test_random_obstacles_stand_clear_of_start_and_goal_at_rest(robot):
+    """Only where obstacles stand at t = 0 (start, goal) and where they stop (goal) keep
+    clear: the filter refuses a robot starting inside an obstacle and a goal inside one
+    cannot be reached. Their walks may cross both (test_random_widened.py)."""
     profile = rs.profile_for(robot)
     for seed in SEEDS:
         sc = rs.random_scenario(robot, seed)
-        to_start, to_goal = rs.start_goal_clearance(sc)
-        assert to_start >= profile.start_clearance - 0.01, (seed, to_start)
-        assert to_goal >= profile.goal_clearance - 0.01, (seed, to_goal)
-        for obs in sc.obstacles:  # also the initial positions, bars included
-            for point in (sc.robot.position, sc.goal.position):
-                assert math.dist(obs.position[:2], point) > max(obs.semi_axes) + 0.5
-
-
-@pytest.mark.parametrize("robot", rs.ROBOTS)
-def test_random_movers_leave_a_passage_at_rest(robot):
-    """No mover waits or stops so close to another obstacle that a dead end forms."""
-    profile = rs.profile_for(robot)
-    checked = 0
-    for seed in range(60):
-        sc = rs.random_scenario(robot, seed)
-        gap = rs.passages(sc)
-        checked += math.isfinite(gap)
-        assert gap >= profile.passage - 0.01, (seed, gap)
-    assert checked >= 1  # pairs with a mover occur (the check is not vacuous)
-
-
-@pytest.mark.parametrize("robot", rs.ROBOTS)
-def test_random_movers_walk_well_before_and_after_meeting_the_robot(robot):
-    """A mover walks >= ~1 m before the nominal robot meets it and >= post_travel after.
-
-    Before this rule the generator shortened both walks to keep clear of the start: walkers
-    stopped where the filtered biped waited for them to pass, or stood beside the path and
-    walked into it as it arrived (0.3-0.5 m walked; old biped seeds 4, 6, 7, 10 and 14).
-    """
-    profile = rs.profile_for(robot)
-    before, after = [], []
-    for seed in range(60):
-        for b, a in rs.meeting_walks(rs.random_scenario(robot, seed)).values():
-            before.append(b)
-            after.append(a)
-    assert len(after) >= 10
-    assert min(before) >= min(profile.pre_travel[0], 1.0) - 0.1, sorted(before)[:3]
-    assert min(after) >= profile.post_travel[0] - 0.1, sorted(after)[:3]
+        for obs in sc.obstacles:
+            if obs.plane != "vertical":
+                continue
+            a = max(obs.semi_axes)
+            assert math.dist(obs.position[:2], sc.robot.position) >= a + min(
+                profile.start_clearance, 0.6) - 0.01, (seed, obs.id)
+            rest = obs.motion.waypoints[-1][:2] if rs.moving(obs) else obs.position[:2]
+            assert math.dist(rest, sc.goal.position) >= a + 0.5, (seed, obs.id)
 
 
 def test_meeting_walks_see_a_mover_stopping_at_the_robot():
@@ -144,19 +116,23 @@ def test_passage_check_sees_a_mover_stopping_beside_a_pillar():
     assert leaves_passage(far, [pillar], 1.0)
 
 
-def test_random_mix_has_every_obstacle_type():
+@pytest.mark.parametrize("robot", rs.ROBOTS)
+def test_random_mix_has_every_obstacle_type(robot):
     kinds = set()
     for seed in range(60):
-        sc = rs.random_scenario("quadruped", seed)
+        sc = rs.random_scenario(robot, seed)
         for obs in sc.obstacles:
             kinds.add(obs.id.rsplit("_", 1)[0])
             if obs.plane == "horizontal":
                 assert sc.robot.yaw == 0.0  # bars are extruded along odom y
-                assert sc.filter_overrides == rs.BAR_FILTER_OVERRIDES
-                assert sc.planner.params == rs.BAR_PLANNER_OVERRIDES
-    # Head-on movers are drawn but rarely fit: their full walk past the conflict point (>= 1.5
-    # m, towards the start) ends within the start clearance. `quadruped_head_on` covers them.
-    assert {"pillar", "crossing", "oblique", "bar"} <= kinds
+                # No slowed height recovery: the filter must keep the trunk's rear clear.
+                assert "k_z" not in sc.planner.params
+                if robot == "quadruped":
+                    assert sc.filter_overrides == rs.BAR_FILTER_OVERRIDES
+                else:  # the biped cannot duck: its profile's height window applies
+                    assert "min_height" not in sc.filter_overrides
+    assert {"pillar", "bench", "wall", "crossing", "head_on", "oblique", "bar",
+            "side_pillar", "side_bench"} <= kinds
 
 
 def test_random_movers_meet_the_nominal_robot():
@@ -505,7 +481,7 @@ def test_named_scenarios_exist_and_load():
     for name in (*evaluate.NAMED_SCENARIOS, evaluate.CI_SCENARIO):
         sc = load_scenario(name)
         assert sc.obstacles
-        assert sc.duration <= 30.0
+        assert sc.duration <= 45.0  # the biped's random budget
         expected = "biped" if name.startswith("biped") else "quadruped"
         assert sc.robot.kind == expected
         for obs in sc.obstacles:  # never on the start or the goal
@@ -515,10 +491,15 @@ def test_named_scenarios_exist_and_load():
 
 def test_named_scenarios_put_obstacles_in_the_way():
     """The straight-line robot (as in the unfiltered runs) meets an obstacle in each."""
+    from safe_legged_c3bf.evaluation.suites import CLEAR_PATH_SCENARIOS
+
     for name in evaluate.NAMED_SCENARIOS:
         sc = load_scenario(name)
         gaps = rs.obstacle_gaps(sc)
-        assert min(gaps.values()) < 0, (name, gaps)
+        if name in CLEAR_PATH_SCENARIOS:  # the body fits past: the filter must not block it
+            assert min(gaps.values()) > 0.1, (name, gaps)
+        else:
+            assert min(gaps.values()) < 0, (name, gaps)
 
 
 def test_evaluate_dry_run_plans(tmp_path, capsys):

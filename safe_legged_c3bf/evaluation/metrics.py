@@ -9,9 +9,14 @@ computes, per group (metric definitions: doc/evaluation.md):
 * ``runs``: rows with obstacles in the group; ``run_failures``: of those, runs without a
   trustworthy result (start-up failure, node died, wall timeout, interrupted), which the
   rates below exclude (``valid`` = runs - run_failures);
-* ``collision_rate``, ``fall_rate``, ``goal_rate`` and ``success_rate`` (goal reached, no
-  collision, no fall) over the valid runs;
-* ``infeasible_runs``: runs with some time in the filter status RELAXED;
+* ``collision_rate``, ``fall_rate``, ``goal_rate`` and ``success_rate`` (goal reached or
+  stopped and held before an impassable obstacle, no collision, no fall) over the valid runs;
+* ``collisions``: valid runs with a collision that are not flagged unsurvivable;
+  ``unsurvivable_runs`` / ``unsurvivable_collided``: flagged runs and those of them with a
+  collision (:mod:`.unsurvivable`); ``impassable_runs`` / ``stopped_impassable``: runs with
+  an impassable obstacle on the path and those that stopped and held before it;
+* ``infeasible_runs``: runs with some time in the filter status RELAXED; ``relaxed_mean``:
+  mean share of time in RELAXED (filter-on runs);
 * min clearance (ground truth, m): min, 10th percentile, median over runs;
 * time-to-goal overhead against the obstacle-free run (s and %): mean and max over runs
   that reached the goal in both;
@@ -31,10 +36,17 @@ from safe_legged_c3bf.evaluation.runner import RUN_FAILURES
 
 #: Columns of the aggregate tables (after the group keys).
 SUMMARY_COLUMNS = (
-    "runs", "run_failures", "valid", "collision_rate", "fall_rate", "goal_rate",
-    "success_rate", "infeasible_runs", "clearance_min", "clearance_p10", "clearance_median",
-    "overhead_mean_s", "overhead_max_s", "overhead_mean_pct", "intervention_mean",
-    "solve_median_ms", "solve_p99_max_ms", "solve_max_ms",
+    "runs", "run_failures", "valid", "collision_rate", "collisions", "unsurvivable_runs",
+    "unsurvivable_collided", "fall_rate", "goal_rate", "impassable_runs", "stopped_impassable",
+    "success_rate", "infeasible_runs", "relaxed_mean", "clearance_min", "clearance_p10",
+    "clearance_median", "overhead_mean_s", "overhead_max_s", "overhead_mean_pct",
+    "intervention_mean", "solve_median_ms", "solve_p99_max_ms", "solve_max_ms",
+)
+#: Columns of the side-by-side table of the filter's body models (same seeds).
+BODY_MODEL_COLUMNS = (
+    "runs", "valid", "collisions", "unsurvivable_runs", "unsurvivable_collided", "goal_rate",
+    "impassable_runs", "stopped_impassable", "success_rate", "intervention_mean",
+    "relaxed_mean", "clearance_min", "clearance_median",
 )
 
 
@@ -73,8 +85,9 @@ def _rate(rows: Sequence[dict[str, Any]], predicate) -> float | None:  # noqa: A
 
 
 def is_success(rec: dict[str, Any]) -> bool:
-    """Goal reached without collision and without falling."""
-    return bool(rec.get("goal_reached")) and not rec.get("collision") and not rec.get("fallen")
+    """Goal reached, or stopped and held before an impassable obstacle; untouched, standing."""
+    done = bool(rec.get("goal_reached")) or bool(rec.get("stopped_before_impassable"))
+    return done and not rec.get("collision") and not rec.get("fallen")
 
 
 def attach_overhead(records: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -112,7 +125,14 @@ def summarize_group(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "goal_rate": _rate(valid, lambda r: bool(r.get("goal_reached"))),
         "success_rate": _rate(valid, is_success),
         "infeasible_runs": sum(1 for r in valid if (r.get("relaxed_share") or 0) > 0),
+        "relaxed_mean": _stat(finite_values(filtered, "relaxed_share"), "mean"),
     }
+    hopeless = [r for r in valid if r.get("unsurvivable")]
+    out["collisions"] = sum(1 for r in valid if r.get("collision") and not r.get("unsurvivable"))
+    out["unsurvivable_runs"] = len(hopeless)
+    out["unsurvivable_collided"] = sum(1 for r in hopeless if r.get("collision"))
+    out["impassable_runs"] = sum(1 for r in valid if r.get("impassable"))
+    out["stopped_impassable"] = sum(1 for r in valid if r.get("stopped_before_impassable"))
     clearance = finite_values(valid, "min_clearance")
     out["clearance_min"] = _stat(clearance, "min")
     out["clearance_p10"] = _stat(clearance, "p10")

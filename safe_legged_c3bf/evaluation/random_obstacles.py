@@ -5,7 +5,8 @@ robot walks from ``start`` along the unit ``tangent`` (``normal`` points to its 
 Obstacles come back as scenario mappings (the ``obstacles[i]`` entries of
 doc/scenario_format.md), rounded to mm. :func:`conflict_stations` places the conflict stations;
 :func:`static_obstacle`, :func:`moving_obstacle` and :func:`bar_obstacle` draw what stands
-at one; :func:`leaves_passage` is the rule that no mover at rest closes a passage. The
+at one, :func:`side_obstacle` a pillar, bench or wall beside the path; :func:`leaves_passage`
+checks whether a mover at rest closes a passage (no longer a rule of the generator). The
 generator that combines them is
 :func:`safe_legged_c3bf.evaluation.random_scenario.generate_scenario`.
 """
@@ -17,17 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from safe_legged_c3bf.evaluation.random_profile import MOVING_KINDS, RandomProfile
+from safe_legged_c3bf.evaluation.random_profile import MOVING_KINDS, SHAPES, RandomProfile
 
 # ------------------------------------------------------------------------------ geometry
-
-
-def _segment_point_distance(p0: np.ndarray, p1: np.ndarray, q: np.ndarray) -> float:
-    """Distance from point ``q`` to the segment p0-p1 (2D)."""
-    d = p1 - p0
-    denom = float(d @ d)
-    u = 0.0 if denom <= 0.0 else float(np.clip((q - p0) @ d / denom, 0.0, 1.0))
-    return float(np.linalg.norm(p0 + u * d - q))
 
 
 def round_mm(x: float) -> float:
@@ -67,8 +60,7 @@ def static_obstacle(
     Shrunk to keep ``start_clearance`` / ``goal_clearance`` m from the start and the goal;
     None when even a 0.1 m one would not fit.
     """
-    a = rng.uniform(*p.obstacle_radius)
-    b = a * rng.uniform(*p.aspect)
+    a, b, shape = static_shape(rng, p)
     offset = rng.uniform(-1.0, 1.0) * p.in_way_fraction * (b + p.half_width)
     centre = point + offset * normal
     # Keep the surface clear of the start and the goal: shrink the ellipse if needed.
@@ -79,7 +71,7 @@ def static_obstacle(
             return None
         b, a = b * room / a, room
     return {
-        "id": f"pillar_{index}",
+        "id": f"{shape}_{index}",
         "plane": "vertical",
         "position": xy_mm(centre),
         "semi_axes": [round_mm(a), round_mm(b)],
@@ -90,11 +82,59 @@ def static_obstacle(
     }
 
 
+def static_shape(rng, p: RandomProfile) -> tuple[float, float, str]:
+    """Semi-axes (a, b) in m and the name of a static shape: pillar, bench or wall."""
+    shape = SHAPES[int(rng.choice(len(SHAPES), p=np.asarray(p.shape_weights) / sum(
+        p.shape_weights)))]
+    if shape == "wall":
+        return rng.uniform(*p.wall_length), rng.uniform(*p.wall_thickness), shape
+    if shape == "bench":
+        return rng.uniform(*p.bench_length), rng.uniform(*p.bench_depth), shape
+    a = rng.uniform(*p.obstacle_radius)
+    return a, a * rng.uniform(*p.aspect), shape
+
+
+def side_obstacle(
+    rng, p: RandomProfile, index: int, s: float, point: np.ndarray, tangent: np.ndarray,
+    normal: np.ndarray, start: np.ndarray, goal: np.ndarray,
+) -> dict[str, Any] | None:
+    """A static pillar, bench or wall beside the path at ``s``: its long axis roughly along it.
+
+    Its surface is ``side_gap`` m from the straight line: the body may fit past (the
+    single-point filter's circle often does not). None when it would not keep clear of the
+    start and the goal.
+    """
+    a, b, shape = static_shape(rng, p)
+    psi = rng.uniform(-0.3, 0.3)  # long axis within ~17 deg of the path
+    across = abs(a * math.sin(psi)) + abs(b * math.cos(psi))  # half-extent across the path
+    side = 1.0 if rng.random() < 0.5 else -1.0
+    centre = point + side * (across + rng.uniform(*p.side_gap)) * normal
+    if min(float(np.linalg.norm(centre - start)) - p.start_clearance,
+           float(np.linalg.norm(centre - goal)) - p.goal_clearance) < a:
+        return None
+    return {
+        "id": f"side_{shape}_{index}", "plane": "vertical", "position": xy_mm(centre),
+        "semi_axes": [round_mm(a), round_mm(b)],
+        "orientation": round_mm(math.atan2(tangent[1], tangent[0]) + psi),
+        "extent": round_mm(rng.uniform(*p.height)), "color": [0.5, 0.5, 0.55, 1.0],
+        "motion": {"type": "static"},
+    }
+
+
 def moving_obstacle(
     rng, p: RandomProfile, index: int, station: float, point: np.ndarray,
     tangent: np.ndarray, normal: np.ndarray, start: np.ndarray, goal: np.ndarray,
+    delay: float = 0.0,
 ) -> dict[str, Any] | None:
-    """A mover through the conflict point ``point`` at the robot's nominal arrival time."""
+    """A mover through the conflict point ``point`` at the robot's nominal arrival time.
+
+    ``delay`` (s) shifts the meeting time (crowd walkers that pass before or after the
+    robot). The walk may pass through the start and the goal and stop anywhere, next to the
+    path or on it; only where it stands at t = 0 keeps ``start_clearance`` from the start
+    (the filter refuses a robot starting inside an obstacle), and where it stands at t = 0
+    and where it stops keep ``goal_clearance`` from the goal (a goal inside it could not be
+    reached).
+    """
     weights = np.asarray(p.kind_weights, dtype=float)
     kind = MOVING_KINDS[int(rng.choice(len(MOVING_KINDS), p=weights / weights.sum()))]
     side = 1.0 if rng.random() < 0.5 else -1.0
@@ -110,25 +150,21 @@ def moving_obstacle(
     speed = rng.uniform(*p.mover_speed)
     offset = rng.uniform(-1.0, 1.0) * 0.5 * p.in_way_fraction * (b + p.half_width)
     meet = point + offset * normal
-    t_meet = p.start_delay + station / p.nominal_speed
+    t_meet = max(p.start_delay + station / p.nominal_speed + delay, 0.0)
     pre = min(rng.uniform(*p.pre_travel), speed * t_meet)
     post = rng.uniform(*p.post_travel)
-    # Shrink the approach (never below ``least_pre``) until the segment keeps clear of the
-    # start and the goal, else draw again. The walk past the conflict point is never
-    # shortened: a mover that stopped short of it stopped where the robot waits for it to
-    # pass (seen: biped seeds 4, 10 and 14, walkers stopping 0.3-0.4 m beside the path, at
-    # twice the biped's reverse speed); one that starts just before it stands beside the
-    # path and walks into the robot as it arrives (biped seed 10 once its stop was fixed).
-    least_pre = min(p.pre_travel[0], pre)
-    for _ in range(40):
-        p0, p1 = meet - pre * direction, meet + post * direction
-        if (_segment_point_distance(p0, p1, start) >= a + p.start_clearance
-                and _segment_point_distance(p0, p1, goal) >= a + p.goal_clearance):
+    p1 = meet + post * direction
+    if float(np.linalg.norm(p1 - goal)) < a + p.goal_clearance:
+        return None  # it would stop on the goal
+    for _ in range(60):  # shorten the approach until it stands clear at t = 0
+        p0 = meet - pre * direction
+        if (float(np.linalg.norm(p0 - start)) >= a + p.start_clearance
+                and float(np.linalg.norm(p0 - goal)) >= a + p.goal_clearance):
             break
-        if pre <= least_pre:
-            return None
-        pre = max(pre * 0.9, least_pre)
+        pre *= 0.9
     else:
+        return None
+    if float(np.linalg.norm(p1 - p0)) < 1e-3:
         return None
     start_time = max(t_meet - pre / speed, 0.0)
     return {

@@ -14,6 +14,8 @@ from typing import Any
 
 ROBOTS = ("quadruped", "biped")
 MOVING_KINDS = ("crossing", "head_on", "oblique")
+#: Static shapes: round-ish pillars, benches and wall segments.
+SHAPES = ("pillar", "bench", "wall")
 #: Filter overrides of biped scenarios (as in config/scenarios/biped_static.yaml): the biped's
 #: command range (config/biped_controller.yaml) and body height instead of the A1's.
 BIPED_FILTER_OVERRIDES = {
@@ -41,7 +43,7 @@ class RandomProfile:
         mover_speed: (min, max) speed of moving obstacles (m/s).
         moving_probability: chance that an obstacle moves.
         kind_weights: relative weights of the moving kinds (crossing, head_on, oblique).
-        bar_probability: chance that one station holds a bar instead (quadruped only).
+        bar_probability: chance that one station holds a bar instead.
         half_width: half the robot's width across the path (m): a vertical obstacle is in
             the way when the straight path passes closer than its smaller semi-axis plus this.
         passage: least surface-to-surface gap (m) between a mover at rest (waiting or
@@ -49,18 +51,22 @@ class RandomProfile:
             for the A1, 1.02 m for the biped) plus 0.4 m, so no dead end forms.
         in_way_fraction: the lateral offset of a conflict point is at most this share of
             (smaller semi-axis + half_width).
-        start_clearance: least distance (m) between any obstacle surface and the start, over
-            the obstacle's whole motion.
-        goal_clearance: the same for the goal.
+        start_clearance: least distance (m) between an obstacle's surface where it stands at
+            t = 0 and the start (the filter refuses a robot that starts inside an obstacle).
+            Its walk may pass through the start.
+        goal_clearance: the same between where an obstacle stands at the end and the goal.
         first_station: least distance (m) from the start to a conflict station.
         last_station: least distance (m) from a conflict station to the goal.
         spacing: least distance (m) between two conflict stations along the path.
         pre_travel: (min, max) distance (m) a mover walks before the conflict point.
-        post_travel: (min, max) distance (m) it walks after it before stopping: far enough
-            for its inflated circle (semi-axis + ~0.5 m) to leave the path, or the stopped
-            mover blocks the way a second time. Neither travel is ever shortened (a mover
-            whose segment comes near the start or the goal is drawn again): see
-            :func:`meeting_walks`.
+        post_travel: (min, max) distance (m) it walks after it before stopping: from 0, so
+            walkers stop anywhere, on the path and next to the robot too.
+        max_movers: most moving obstacles in one scenario.
+        shape_weights: relative weights of the static shapes (pillar, bench, wall).
+        wall_length, wall_thickness: (min, max) semi-axes a and b of a wall segment (m).
+        bench_length, bench_depth: (min, max) semi-axes a and b of a bench (m).
+        side_gap: (min, max) distance (m) between the straight path and the surface of an
+            obstacle beside it (the obstacles beyond the conflict stations).
         random_heading: draw the robot's heading (else yaw 0).
         trunk_top: top of the robot's body when standing (m); a bar is in the way below it.
         bar_underside: (min, max) height of a bar's underside (m).
@@ -95,6 +101,13 @@ class RandomProfile:
     spacing: float
     pre_travel: tuple[float, float]
     post_travel: tuple[float, float]
+    max_movers: int = 4
+    shape_weights: tuple[float, float, float] = (0.6, 0.2, 0.2)
+    wall_length: tuple[float, float] = (0.8, 2.0)
+    wall_thickness: tuple[float, float] = (0.05, 0.12)
+    bench_length: tuple[float, float] = (0.4, 0.8)
+    bench_depth: tuple[float, float] = (0.15, 0.25)
+    side_gap: tuple[float, float] = (0.2, 1.2)
     random_heading: bool = True
     trunk_top: float = 0.337
     bar_underside: tuple[float, float] = (0.295, 0.305)
@@ -115,23 +128,25 @@ class RandomProfile:
 PROFILES: dict[str, RandomProfile] = {
     "quadruped": RandomProfile(
         robot="quadruped", cruise_speed=0.4, nominal_speed=0.4, start_delay=0.4,
-        goal_distance=(5.5, 7.0), duration=36.0, obstacle_count=(1, 3),
+        goal_distance=(5.5, 7.0), duration=36.0, obstacle_count=(1, 6),
         obstacle_radius=(0.18, 0.35), aspect=(0.6, 1.0), height=(0.8, 1.8),
-        mover_speed=(0.15, 0.35), moving_probability=0.5, kind_weights=(0.4, 0.3, 0.3),
-        bar_probability=0.2, half_width=0.15, in_way_fraction=0.5, passage=1.4,
-        start_clearance=1.0,
-        goal_clearance=1.0, first_station=2.5, last_station=1.5, spacing=1.2,
-        pre_travel=(1.5, 3.5), post_travel=(1.5, 2.5),
+        mover_speed=(0.15, 0.45), moving_probability=0.5, kind_weights=(0.4, 0.3, 0.3),
+        bar_probability=0.25, half_width=0.15, in_way_fraction=0.5, passage=1.4,
+        start_clearance=0.7,
+        goal_clearance=0.7, first_station=2.0, last_station=1.2, spacing=1.0,
+        pre_travel=(0.3, 3.5), post_travel=(0.0, 2.5),
+        bar_underside=(0.10, 0.36),
     ),
     "biped": RandomProfile(
         robot="biped", cruise_speed=0.2, nominal_speed=0.195, start_delay=2.0,
-        goal_distance=(3.0, 3.6), duration=45.0, obstacle_count=(1, 2),
+        goal_distance=(3.0, 3.6), duration=45.0, obstacle_count=(1, 6),
         obstacle_radius=(0.15, 0.3), aspect=(0.6, 1.0), height=(1.0, 1.8),
-        mover_speed=(0.1, 0.2), moving_probability=0.7, kind_weights=(0.4, 0.3, 0.3),
-        bar_probability=0.0, half_width=0.15, in_way_fraction=0.5, passage=1.45,
-        start_clearance=0.9,
-        goal_clearance=0.9, first_station=1.4, last_station=1.2, spacing=0.9,
-        pre_travel=(1.0, 2.5), post_travel=(1.3, 2.0), trunk_top=1.1,
+        mover_speed=(0.1, 0.25), moving_probability=0.6, kind_weights=(0.4, 0.3, 0.3),
+        bar_probability=0.15, half_width=0.15, in_way_fraction=0.5, passage=1.45,
+        start_clearance=0.8,
+        goal_clearance=0.8, first_station=1.2, last_station=1.0, spacing=0.8,
+        pre_travel=(0.3, 2.5), post_travel=(0.0, 2.0), trunk_top=1.1,
+        bar_underside=(0.55, 1.15), side_gap=(0.25, 1.2),
         filter_overrides=dict(BIPED_FILTER_OVERRIDES),
     ),
 }

@@ -5,30 +5,29 @@
 
 * the robot starts at the origin with a random heading (yaw 0 when a bar is drawn: bars are
   extruded along odom y) and its goal lies ``goal_distance`` m straight ahead;
-* ``obstacle_count`` obstacles get *conflict stations* along the straight start-goal line,
-  at least ``spacing`` m apart, away from the start and the goal;
-* a **static** obstacle (random ellipse, orientation, height) stands at its station with a
-  lateral offset small enough that the straight path runs through it;
+* up to ``obstacle_count[1]`` (6) obstacles, at most ``max_movers`` (4) of them moving: the
+  first on *conflict stations* along the straight start-goal line, at least ``spacing`` m
+  apart, the rest crowd walkers or obstacles beside the path (:func:`side_obstacle`);
+* a **static** obstacle at a station (pillar, bench or wall segment) stands with a lateral
+  offset small enough that the straight path runs through it;
 * a **moving** obstacle (``crossing`` ±90°, ``head_on`` 180° or ``oblique`` ±115-150° to the
   path, random speed) is timed to be at its station when a robot walking the straight line
-  at ``nominal_speed`` (after ``start_delay``) gets there: it waits at its start
-  (``start_time``), walks a straight segment through the conflict point and stops
-  (``mode: stop``);
-* a **bar** (quadruped only, probability ``bar_probability``) lies across the path with its
-  underside below the standing robot's trunk top and above what a ducking robot needs; the
-  scenario then carries the same ``filter:`` and ``planner:`` overrides as
-  ``quadruped_horizontal``;
-* biped scenarios carry the biped's command range and height as ``filter:`` overrides.
+  at ``nominal_speed`` (after ``start_delay``) gets there (crowd walkers beyond the stations
+  up to 4 s before or after): it waits at its start (``start_time``), walks a straight
+  segment through the conflict point and stops (``mode: stop``) anywhere from 0 m past it:
+  on the path, next to the robot, across the start;
+* a **bar** (probability ``bar_probability``) lies across the path at any height from
+  impassable (below the trunk at the lowest body height) to just above the standing trunk;
+  quadruped scenarios then carry the bar filter overrides, biped ones keep the biped's own
+  height window (it cannot duck);
+* biped scenarios carry the biped's command range as ``filter:`` overrides.
 
-No obstacle ever comes near the start or the goal: the whole motion segment of every
-obstacle keeps ``start_clearance`` / ``goal_clearance`` m between the obstacle's surface and
-those points. No mover closes a passage: where it waits and where it stops it leaves at least
-``passage`` m between its surface and every other obstacle's surface at rest (or its draw is
-repeated). Without that rule a mover could stop beside a pillar the robot is passing and form
-a dead end that only a global planner gets out of (seen with a straight-line planner: the
-robot stood safe in the pocket until the time ran out). :func:`passages` re-checks that rule
-and :func:`obstacle_gaps` the "in the way" property on any scenario: the straight-line robot
-at its nominal speed meets every obstacle.
+Only what validity requires is kept clear: where an obstacle stands at t = 0 keeps
+``start_clearance`` from the start and ``goal_clearance`` from the goal, and where it stops
+keeps ``goal_clearance`` from the goal. Nothing else is left out (issue #16): the runs no
+controller could survive are identified afterwards (:mod:`.unsurvivable`) and counted
+apart, impassable obstacles expect a held stop (:mod:`.impassable`).
+:func:`passages`, :func:`meeting_walks` and :func:`obstacle_gaps` measure a scenario.
 
 Parts: the ranges drawn from are in :mod:`.random_profile`, the draw of one obstacle in
 :mod:`.random_obstacles`, the checks in :mod:`.random_checks` (all re-exported here).
@@ -57,9 +56,9 @@ from safe_legged_c3bf.evaluation.random_checks import (
 from safe_legged_c3bf.evaluation.random_obstacles import (
     bar_obstacle,
     conflict_stations,
-    leaves_passage,
     moving_obstacle,
     round_mm,
+    side_obstacle,
     static_obstacle,
     xy_mm,
 )
@@ -83,7 +82,8 @@ __all__ = [  # the profile and the checks are re-exported from their modules
 
 #: Filter overrides of scenarios with a bar (as in config/scenarios/quadruped_horizontal.yaml).
 BAR_FILTER_OVERRIDES = {"safety_margin": 0.03, "min_height": 0.18, "max_height": 0.285}
-#: Planner overrides of scenarios with a bar: regain the height gently behind it.
+#: Planner overrides of the named bar scenarios (regain the height gently behind the bar).
+#: No longer applied to random scenarios: the filter must keep the trunk's rear clear itself.
 BAR_PLANNER_OVERRIDES = {"k_z": 0.3}
 #: Draws of a mover before its station gets a pillar instead.
 MOVER_DRAWS = 10
@@ -111,7 +111,7 @@ def generate_scenario(
         raise ValueError(f"seed must be >= 0, got {seed}")
     rng = np.random.default_rng([int(seed), ROBOTS.index(robot)])
     length = rng.uniform(*p.goal_distance)
-    use_bar = robot == "quadruped" and rng.random() < p.bar_probability
+    use_bar = rng.random() < p.bar_probability
     yaw = rng.uniform(-math.pi, math.pi) if p.random_heading and not use_bar else 0.0
     tangent = np.array([math.cos(yaw), math.sin(yaw)])
     normal = np.array([-math.sin(yaw), math.cos(yaw)])
@@ -121,12 +121,18 @@ def generate_scenario(
     stations = conflict_stations(rng, count, p.first_station, length - p.last_station, p.spacing)
     bar_index = int(rng.integers(len(stations))) if use_bar and stations else -1
     obstacles: list[dict[str, Any]] = []
-    for i, s in enumerate(stations):
-        point = start + s * tangent
-        if i == bar_index:
-            obstacles.append(bar_obstacle(rng, p, i, point))
-            continue
-        obstacle = _station_obstacle(rng, p, i, s, point, tangent, normal, start, goal, obstacles)
+    frame = (tangent, normal, start, goal)
+    for i in range(count):
+        if i < len(stations):
+            s = stations[i]
+            if i == bar_index:
+                obstacles.append(bar_obstacle(rng, p, i, start + s * tangent))
+                continue
+        else:  # beyond the stations: a crowd walker or an obstacle beside the path
+            s = float(rng.uniform(0.5, max(length - 0.5, 0.6)))
+        movers = sum(1 for o in obstacles if o.get("motion", {}).get("type") == "waypoints")
+        obstacle = _draw_obstacle(rng, p, i, s, i >= len(stations), movers < p.max_movers,
+                                  frame)
         if obstacle is not None:
             obstacles.append(obstacle)
     kinds = sorted({o["id"].rsplit("_", 1)[0] for o in obstacles})
@@ -146,36 +152,37 @@ def generate_scenario(
         "obstacles": obstacles,
     }
     overrides = dict(p.filter_overrides)
-    if bar_index >= 0:
+    if bar_index >= 0 and robot == "quadruped":
         overrides.update(BAR_FILTER_OVERRIDES)
-        data["planner"].update(BAR_PLANNER_OVERRIDES)
+    elif bar_index >= 0:  # the biped cannot duck: the filter keeps its profile's window
+        overrides = {k: v for k, v in overrides.items() if k not in ("min_height", "max_height")}
     if overrides:
         data["filter"] = overrides
     return data
 
 
-def _station_obstacle(
-    rng: np.random.Generator, p: RandomProfile, i: int, s: float, point: np.ndarray,
-    tangent: np.ndarray, normal: np.ndarray, start: np.ndarray, goal: np.ndarray,
-    placed: list[dict[str, Any]],
+def _draw_obstacle(
+    rng: np.random.Generator, p: RandomProfile, i: int, s: float, extra: bool,
+    may_move: bool, frame: tuple[np.ndarray, ...],
 ) -> dict[str, Any] | None:
-    """What stands at station ``i`` (``s`` m from the start, at ``point``; odom x-y, m).
+    """What stands at ``s`` m along the path (obstacle ``i``; odom x-y, m).
 
-    A mover with probability ``moving_probability`` (drawn up to :data:`MOVER_DRAWS` times
-    until it leaves the passages to the obstacles already ``placed`` open), else a pillar;
-    None when no pillar fits or it would close a passage too.
+    A mover with probability ``moving_probability`` while fewer than ``max_movers`` move
+    (up to :data:`MOVER_DRAWS` draws); else, at a conflict station, a pillar, bench or wall
+    in the way and, beyond the stations (``extra``), one beside the path. A walker beyond the
+    stations meets the path up to 4 s before or after the robot. None when nothing fits.
     """
-    mover = None
-    if rng.random() < p.moving_probability:
+    tangent, normal, start, goal = frame
+    point = start + s * tangent
+    if may_move and rng.random() < p.moving_probability:
+        delay = float(rng.uniform(-4.0, 4.0)) if extra else 0.0
         for _ in range(MOVER_DRAWS):
-            mover = moving_obstacle(rng, p, i, s, point, tangent, normal, start, goal)
-            if mover is None or leaves_passage(mover, placed, p.passage):
-                break
-            mover = None
-    obstacle = mover or static_obstacle(rng, p, i, point, normal, start, goal)
-    if obstacle is not None and not leaves_passage(obstacle, placed, p.passage):
-        obstacle = None  # a pillar beside a resting mover: leave the station empty
-    return obstacle
+            mover = moving_obstacle(rng, p, i, s, point, tangent, normal, start, goal, delay)
+            if mover is not None:
+                return mover
+    if extra:
+        return side_obstacle(rng, p, i, s, point, tangent, normal, start, goal)
+    return static_obstacle(rng, p, i, point, normal, start, goal)
 
 
 def random_scenario(robot: str = "quadruped", seed: int = 0, **kwargs: Any) -> Scenario:

@@ -18,6 +18,7 @@ from typing import Any
 
 from safe_legged_c3bf.evaluation.figures import FIGURES, write_figures
 from safe_legged_c3bf.evaluation.metrics import (
+    BODY_MODEL_COLUMNS,
     SUMMARY_COLUMNS,
     aggregate,
     attach_overhead,
@@ -34,9 +35,10 @@ __all__ = [  # metrics and figures are re-exported from their modules
 
 #: Columns of results.csv, in order.
 RUN_COLUMNS = (
-    "run_id", "suite", "case", "scenario", "robot", "kind", "variant", "filter", "seed",
-    "outcome", "failures", "goal_reached", "goal_time", "free_goal_time", "overhead_s",
+    "run_id", "suite", "case", "scenario", "robot", "kind", "variant", "filter", "body_model",
+    "seed", "outcome", "failures", "goal_reached", "goal_time", "free_goal_time", "overhead_s",
     "overhead_pct", "collision", "collision_count", "obstacles_touched", "fallen",
+    "impassable", "stopped_before_impassable", "creep", "unsurvivable", "unsurvivable_detail",
     "min_clearance", "min_clearance_obstacle", "final_goal_distance", "path_length",
     "intervention_share", "relaxed_share", "brake_share", "filter_cycles", "solve_median_ms",
     "solve_p99_ms", "solve_max_ms", "sim_time", "duration", "real_time_factor", "wall_time",
@@ -55,7 +57,7 @@ def _cell(value: Any, key: str = "") -> str:
         if abs(value) < 5e-4:
             value = 0.0  # no "-0.000"
         if key.endswith("_rate") or key in ("intervention_mean", "intervention_share",
-                                            "relaxed_share"):
+                                            "relaxed_share", "relaxed_mean"):
             digits = 1 if 0 < abs(value) < 0.1 else 0  # "0.4 %", not "0 %"
             return f"{100 * value:.{digits}f} %"
         if key.endswith("_ms"):
@@ -117,6 +119,9 @@ SUMMARY_HEADERS = {
     "runs": "runs", "run_failures": "run failures", "valid": "valid",
     "collision_rate": "collision", "fall_rate": "fell", "goal_rate": "goal reached",
     "success_rate": "success", "infeasible_runs": "RELAXED runs",
+    "relaxed_mean": "RELAXED share", "collisions": "collided runs (survivable)",
+    "unsurvivable_runs": "unsurvivable runs", "unsurvivable_collided": "unsurvivable collided",
+    "impassable_runs": "impassable runs", "stopped_impassable": "stopped before impassable",
     "clearance_min": "min clearance (m)", "clearance_p10": "p10 clearance (m)",
     "clearance_median": "median clearance (m)", "overhead_mean_s": "overhead mean (s)",
     "overhead_max_s": "overhead max (s)", "overhead_mean_pct": "overhead mean",
@@ -124,7 +129,7 @@ SUMMARY_HEADERS = {
     "solve_p99_max_ms": "solve p99 max (ms)", "solve_max_ms": "solve max (ms)",
 }
 RUN_TABLE = (
-    ("run_id", "run"), ("filter", "filter"), ("outcome", "outcome"),
+    ("run_id", "run"), ("filter", "filter"), ("body_model", "body"), ("outcome", "outcome"),
     ("failures", "flags"), ("goal_time", "goal (s)"), ("free_goal_time", "free goal (s)"),
     ("overhead_s", "overhead (s)"), ("min_clearance", "min clearance (m)"),
     ("min_clearance_obstacle", "closest"), ("intervention_share", "intervened"),
@@ -132,6 +137,22 @@ RUN_TABLE = (
     ("solve_p99_ms", "solve p99 (ms)"), ("real_time_factor", "RTF"),
     ("wall_time", "wall (s)"),
 )
+
+
+def _body_model_section(records: Sequence[dict[str, Any]]) -> list[str]:
+    """The single-point vs whole-body table (filter-on runs with a body model), or nothing."""
+    rows = [r for r in records if r.get("body_model") and r.get("filter") == "on"]
+    if not rows:
+        return []
+    keys = list(BODY_MODEL_COLUMNS)
+    return [
+        "## Filter body models side by side (same scenarios and seeds)", "",
+        "`collided runs (survivable)` counts collisions outside the runs flagged unsurvivable "
+        "(doc/evaluation.md); those are in `unsurvivable collided`.", "",
+        markdown_table(aggregate(rows, ("robot", "body_model")), ["robot", "body_model", *keys],
+                       ["robot", "filter body model", *(SUMMARY_HEADERS[k] for k in keys)]),
+        "",
+    ]
 
 
 def results_markdown(
@@ -164,13 +185,15 @@ def results_markdown(
             ["scenario", "filter", "runs", "collision", "goal reached", "success",
              "min clearance (m)", "overhead (s)", "intervened", "solve p99 max (ms)"],
         ), "",
+        *_body_model_section(records),
         "## Every run", "",
         markdown_table(sorted(records, key=lambda r: (r.get("case", ""), r.get("variant", ""),
                                                       r.get("filter", ""))),
                        [c for c, _ in RUN_TABLE], [h for _, h in RUN_TABLE]), "",
     ]
     failures = [r for r in records if r.get("outcome") in RUN_FAILURES
-                or (r.get("filter") == "on" and r.get("outcome") != "ok")]
+                or (r.get("filter") == "on"
+                    and r.get("outcome") not in ("ok", "stopped_impassable"))]
     parts += ["## Failures (filter on, or runs that did not complete)", ""]
     if failures:
         for r in failures:

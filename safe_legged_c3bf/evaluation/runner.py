@@ -21,6 +21,9 @@ outcome                meaning
 ``incomplete_report``  the report lacks ``collision``, ``fallen`` or ``goal_reached`` (or one is
                        not true/false): the run proves nothing, so it is never ``ok``
 ``goal_not_reached``   the scenario ended (sim time) before the robot reached its goal
+``stopped_impassable`` the goal was not reached, but an impassable obstacle blocks the path and
+                       the robot stopped before it, untouched, and held the stop to the end
+                       (:mod:`.expectations`): the expected outcome, a success
 ``node_died``          a node died or the simulation stalled (bringup exit 1, report outcome
                        ``node_died`` or ``stalled``), or the bringup failed with another code
 ``startup_failed``     the run could not start (bringup exit 2, or no report was written)
@@ -56,7 +59,7 @@ from safe_legged_c3bf.run.process_group import stop_groups
 #: Outcomes in priority order (the first that applies names the run).
 OUTCOMES = (
     "startup_failed", "node_died", "wall_timeout", "interrupted", "collided", "fell",
-    "incomplete_report", "goal_not_reached", "ok",
+    "incomplete_report", "goal_not_reached", "stopped_impassable", "ok",
 )
 #: Outcomes for which the run produced no trustworthy result.
 RUN_FAILURES = frozenset(
@@ -91,6 +94,7 @@ class RunSpec:
         seed: ``--seed`` override (None: the scenario's own).
         duration: ``--duration`` override in sim seconds (None: the scenario's).
         extra_args: further bringup arguments.
+        body_model: the filter's ``body_model`` the scenario file sets ('' = its default).
 
     """
 
@@ -105,6 +109,7 @@ class RunSpec:
     seed: int | None = None
     duration: float | None = None
     extra_args: tuple[str, ...] = field(default_factory=tuple)
+    body_model: str = ""
 
 
 def bringup_command(
@@ -179,6 +184,7 @@ def record_from_report(
         "kind": base.get("kind", ""),
         "variant": base.get("variant", "obstacles"),
         "filter": "on" if base.get("filter_enabled", True) else "off",
+        "body_model": base.get("body_model") or "",
         "seed": base.get("seed"),
         "exit_code": exit_code,
         "timed_out": bool(timed_out),
@@ -247,7 +253,8 @@ def classify(rec: dict[str, Any]) -> tuple[str, list[str]]:
     if has_report and not all(isinstance(rec.get(f), bool) for f in REQUIRED_FIELDS):
         flags.append("incomplete_report")
     if has_report and rec.get("goal_reached") is False:
-        flags.append("goal_not_reached")
+        flags.append("stopped_impassable" if rec.get("stopped_before_impassable")
+                     else "goal_not_reached")
     if (rec.get("relaxed_share") or 0.0) > 0.0:
         flags.append("infeasible")
     return next((o for o in OUTCOMES if o in flags), "ok"), flags
@@ -410,6 +417,10 @@ class Runner:
         wall = time.monotonic() - started
         report = _read_report(run_dir / "report.json")
         rec = record_from_report(spec, report, code, wall, timed_out, run_dir)
+        if report is not None:
+            from safe_legged_c3bf.evaluation.expectations import annotate
+
+            annotate(rec, spec.scenario, run_dir)
         if timed_out:
             rec["reason"] = f"stopped after the wall-clock limit of {limit:.0f} s"
         elif report is None:

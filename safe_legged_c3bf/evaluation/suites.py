@@ -3,8 +3,10 @@
 A suite (``paper``, ``named``, ``random-quadruped``, ``random-biped``, ``all``, ``ci``; see
 :mod:`safe_legged_c3bf.evaluate`) is a list of :class:`Case` (one scenario and seed);
 :func:`plan_runs` splits each into the runs of the evaluation: with the filter, without it,
-and with the filter on the same scenario without obstacles. Random scenarios and the
-obstacle-free variants are written as YAML under ``<out>/scenarios/``. Durations in s of sim
+and with the filter on the same scenario without obstacles; with ``--compare-body-models``
+the filter run is replaced by one per :data:`BODY_MODELS` value (the same scenario and seed
+with ``filter.body_model`` set). Random scenarios, the obstacle-free and the body-model
+variants are written as YAML under ``<out>/scenarios/``. Durations in s of sim
 time.
 """
 
@@ -32,8 +34,22 @@ NAMED_SCENARIOS = PAPER_SCENARIOS | {
     "quadruped_head_on": "head_on",
     "quadruped_crossing": "crossing",
     "quadruped_bar_and_pillar": "bar_and_pillar",
+    # Issue #16: what a single body point misses (doc/evaluation.md, Scenarios).
+    "quadruped_low_bar": "impassable",
+    "biped_low_bar": "impassable",
+    "quadruped_bar_rising": "bar_rising",
+    "quadruped_gap": "gap",
+    "quadruped_wall": "wall",
+    "quadruped_crowd": "crowd",
+    "biped_crowd": "crowd",
 }
+#: Named scenarios whose straight path clears every obstacle (the unfiltered robot passes
+#: untouched): they test that the filter does not block what the body fits past.
+CLEAR_PATH_SCENARIOS = frozenset({"quadruped_wall"})
 CI_SCENARIO = "quadruped_ci"
+#: The safety filter's ``body_model`` values compared by ``--compare-body-models``: the
+#: paper's single body point and the whole body.
+BODY_MODELS = ("point", "body")
 SUITES = ("paper", "named", "random-quadruped", "random-biped", "all", "ci")
 DEFAULT_RANDOM_SEEDS = 5
 
@@ -133,6 +149,30 @@ def plan_cases(opts: argparse.Namespace, out: Path) -> list[Case]:
             + _random_cases("biped", n_random, opts.seed_start, out))
 
 
+def write_body_model_variant(raw: dict[str, Any], model: str, path: Path) -> Path:
+    """Write ``raw`` with ``filter.body_model: model`` to ``path`` (YAML); return the path.
+
+    Not validated here: the base scenario was, and the key is the safety filter's
+    ``body_model`` parameter, which the bringup validates against the installed filter
+    (``evaluate --compare-body-models`` refuses to run without it).
+    """
+    from safe_legged_c3bf.evaluation import random_scenario as rs
+
+    data = dict(raw)
+    data["filter"] = {**(raw.get("filter") or {}), "body_model": model}
+    data["name"] = f"{raw.get('name', path.stem)}__{model}"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(rs.scenario_yaml(data), encoding="utf-8")
+    return path
+
+
+def body_model_supported() -> bool:
+    """True when the installed safety filter declares the ``body_model`` parameter."""
+    from safe_legged_c3bf.safety.params import FilterParams
+
+    return "body_model" in getattr(FilterParams, "__dataclass_fields__", {})
+
+
 def plan_runs(cases: list[Case], opts: argparse.Namespace, out: Path, suite: str) -> list:
     """RunSpecs (filter on, filter off, obstacle-free) of every case, in run order."""
     from safe_legged_c3bf.evaluation import random_scenario as rs
@@ -141,8 +181,15 @@ def plan_runs(cases: list[Case], opts: argparse.Namespace, out: Path, suite: str
     for c in cases:
         common = dict(case=c.case, robot=c.robot, kind=c.kind, suite=suite, seed=c.seed,
                       duration=opts.duration)
-        specs.append(RunSpec(run_id=f"{c.case}__filter", scenario=c.scenario,
-                             filter_enabled=True, **common))
+        if getattr(opts, "compare_body_models", False):
+            for model in BODY_MODELS:
+                path = write_body_model_variant(c.raw, model, out / "scenarios" / (
+                    f"{c.case.replace('@', '_')}__{model}.yaml"))
+                specs.append(RunSpec(run_id=f"{c.case}__{model}", scenario=str(path),
+                                     filter_enabled=True, body_model=model, **common))
+        else:
+            specs.append(RunSpec(run_id=f"{c.case}__filter", scenario=c.scenario,
+                                 filter_enabled=True, **common))
         if c.baseline and not opts.no_baseline:
             specs.append(RunSpec(run_id=f"{c.case}__nofilter", scenario=c.scenario,
                                  filter_enabled=False, **common))

@@ -32,6 +32,8 @@ class RobotSpec:
         foot_links: names of the links that touch the ground.
         width: robot width (m) used to inflate obstacles (w in r = max(c1, c2) + w/2).
         height: body height (m) used to inflate horizontal obstacles.
+        trunk_top: height (m) of the trunk's top above the base origin (its collision box).
+        min_base_height: lowest base height (m) the gait controller holds while walking.
 
     """
 
@@ -42,6 +44,8 @@ class RobotSpec:
     foot_links: tuple[str, ...] = ()
     width: float = 0.3
     height: float = 0.2
+    trunk_top: float = 0.1
+    min_base_height: float = 0.0
 
 
 def _a1_spec() -> RobotSpec:
@@ -58,6 +62,8 @@ def _a1_spec() -> RobotSpec:
         foot_links=("FR_toe", "FL_toe", "RR_toe", "RL_toe"),
         width=0.30,
         height=0.12,
+        trunk_top=0.057,  # trunk collision box 0.267 x 0.194 x 0.114 m about the base origin
+        min_base_height=0.18,  # config/quadruped_controller.yaml: min_body_height
     )
 
 
@@ -86,6 +92,8 @@ def _biped_spec() -> RobotSpec:
         foot_links=("l_foot", "r_foot"),
         width=0.30,
         height=0.42,
+        trunk_top=0.23,  # torso box 0.3 m high centred 0.08 m above the base origin
+        min_base_height=0.80,  # walks at ~0.81 m and ignores vertical commands: no ducking
     )
 
 
