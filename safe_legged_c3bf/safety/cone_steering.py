@@ -27,8 +27,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["SWITCH_MARGIN", "ConeSteering", "Steer", "blocked_headings"]
+__all__ = ["START_SPEED", "SWITCH_MARGIN", "ConeSteering", "Steer", "blocked_headings"]
 
+START_SPEED = 0.1
+"""Commanded speed [m/s] below which a blocked heading is turned in place before walking."""
 SWITCH_MARGIN = math.radians(45.0)
 """The kept side is left only for a side whose free heading is this much nearer [rad]."""
 
@@ -89,8 +91,12 @@ class ConeSteering:
         self._side, self._side_time = 0, -math.inf
 
     def steer(self, t: float, pos, yaw: float, vx_ref: float, wz_ref: float,
-              centers, velocities, radii, max_yaw_rate: float) -> Steer:
-        """The shaped reference at time ``t`` [s] (see :class:`Steer`)."""
+              centers, velocities, radii, max_yaw_rate: float, speed: float = 0.0) -> Steer:
+        """The shaped reference at time ``t`` [s] (see :class:`Steer`).
+
+        ``speed``: the robot's commanded forward speed [m/s]; below ``START_SPEED`` a robot
+        whose heading is blocked turns in place before it walks.
+        """
         if vx_ref <= 1e-3 or len(radii) == 0 or self.horizon <= 0.0:
             return Steer(vx_ref, wz_ref, 0, True)
         p = np.asarray(centers, dtype=float) - np.asarray(pos, dtype=float)[:2]
@@ -105,9 +111,12 @@ class ConeSteering:
         offset_side, offset = side
         error = math.remainder(psi_ref + offset - yaw, math.tau)
         wz = max(-max_yaw_rate, min(max_yaw_rate, self.heading_gain * error))
-        # Forward only along a free heading: from a heading inside a cone, turn in place first
-        # (the barrier would refuse the forward part and, with it, most of the turn).
-        if blocked_headings(np.array([yaw]), vx_ref, p, w, r, self.horizon)[0]:
+        # From (near) rest, forward only along a free heading: turn in place first (the
+        # barrier would refuse the forward part and, with it, most of the turn). Once
+        # walking, the QP turns the robot out of the cone itself.
+        if speed < START_SPEED and blocked_headings(
+            np.array([yaw]), vx_ref, p, w, r, self.horizon
+        )[0]:
             return Steer(0.0, wz, offset_side, True)
         return Steer(vx_ref * max(math.cos(error), 0.0), wz, offset_side, True)
 

@@ -187,6 +187,7 @@ class SafetyFilterCycle:
         out = self._steering.steer(
             t, pos, yaw, float(ref_arr[0]), float(ref_arr[3]), circles.center[vertical],
             circles.velocity[vertical], circles.radius[vertical], p.max_yaw_rate,
+            float(self._v[0]),
         )
         if out.side == 0:
             return "" if out.free else " (no free heading: following)"
