@@ -7,6 +7,8 @@
    measures the wall time until the matching /cmd_vel_safe arrives.
 
 Usage: python benchmarks/filter_node_latency.py [--obstacles 10] [--cycles 500]
+       [--body-model point|body]   (body: the whole-body filter, one row per body point and
+                                    obstacle of the A1's cover; default: the node's default)
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ import rclpy  # noqa: E402
 from geometry_msgs.msg import Twist  # noqa: E402
 from nav_msgs.msg import Odometry  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.parameter import Parameter  # noqa: E402
 from rosgraph_msgs.msg import Clock  # noqa: E402
 
 from safe_legged_c3bf.interfaces import topics  # noqa: E402
@@ -118,12 +121,18 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--obstacles", type=int, default=10)
     ap.add_argument("--cycles", type=int, default=500)
+    ap.add_argument("--body-model", choices=("point", "body"), default=None)
     args = ap.parse_args()
-    print(f"ROS_DOMAIN_ID={_LEASE.domain_id}, {args.obstacles} obstacles, {args.cycles} cycles")
+    print(f"ROS_DOMAIN_ID={_LEASE.domain_id}, {args.obstacles} obstacles, {args.cycles} cycles"
+          f", body_model {args.body_model or 'default'}")
+    overrides, ros_args = [], []
+    if args.body_model:
+        overrides = [Parameter("body_model", Parameter.Type.STRING, args.body_model)]
+        ros_args = ["--ros-args", "-p", f"body_model:={args.body_model}"]
 
     rclpy.init()
     executor = SingleThreadedExecutor()
-    filt = SafetyFilterNode()
+    filt = SafetyFilterNode(parameter_overrides=overrides)
     node = rclpy.create_node("latency_driver")
     executor.add_node(filt)
     executor.add_node(node)
@@ -136,7 +145,7 @@ def main() -> int:
     filt.destroy_node()
 
     proc = subprocess.Popen(
-        [sys.executable, "-m", "safe_legged_c3bf.nodes.safety_filter_node"],
+        [sys.executable, "-m", "safe_legged_c3bf.nodes.safety_filter_node", *ros_args],
         env=dict(os.environ), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
     )
     try:

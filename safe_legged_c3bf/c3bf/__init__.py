@@ -5,6 +5,7 @@ See ``doc/c3bf_api.md`` for the API and an example.
 """
 
 from .barrier import DEFAULT_V_EPS, c3bf_gradient, c3bf_value, regularized_speed
+from .body import BodyPoint, RobotBody, robot_body
 from .errors import InvalidInputError
 from .filter import SafetyFilter, cbf_closed_form
 from .geometry import EllipseObstacle, Obstacles, Plane, inflated_radius
@@ -24,6 +25,7 @@ __all__ = [
     "DEFAULT_V_EPS",
     "PLANE_AXES",
     "BarrierTerms",
+    "BodyPoint",
     "EllipseObstacle",
     "FilterResult",
     "FilterStatus",
@@ -33,6 +35,7 @@ __all__ = [
     "Obstacles",
     "Plane",
     "PointKinematics",
+    "RobotBody",
     "RobotModel",
     "SafetyFilter",
     "UnicycleHeightModel",
@@ -45,4 +48,5 @@ __all__ = [
     "cbf_closed_form",
     "inflated_radius",
     "regularized_speed",
+    "robot_body",
 ]

@@ -87,6 +87,11 @@ class FilterParams(TypedParams):
         POSITIVE,
     )
     max_speed: float = param(0.8, "m/s", "forward speed limit |vx|", POSITIVE)
+    max_speedup: float = param(
+        0.1, "m/s", "whole-body model: how far above the reference's forward speed the filter "
+        "may command (the collision cone is then left by turning or braking; the paper's "
+        "filter may run up to max_speed past an obstacle)", NON_NEGATIVE,
+    )
     max_reverse_speed: float = param(0.3, "m/s", "limit on backward speed", NON_NEGATIVE)
     max_lateral_speed: float = param(
         0.3, "m/s", "lateral speed limit |vy| (holonomic only)", POSITIVE

@@ -381,7 +381,7 @@ class SafetyFilterCycle:
         deadlocked = (p.model == "unicycle" and self._body is None  # body: cone steering
                       and self._deadlock_turn(t, ref_arr, circles, pos, yaw))
         state, u_ref, idx = self._model_problem(ref_arr, pos, yaw)
-        u_min, u_max = self._bounds(v, measured, float(pos[2]), dt, idx)
+        u_min, u_max = self._bounds(v, measured, float(pos[2]), dt, idx, float(ref_arr[0]))
         u_ref_clipped = np.minimum(np.maximum(u_ref, u_min), u_max)  # np.clip, less overhead
         try:
             result = self.filter.filter(
@@ -495,15 +495,23 @@ class SafetyFilterCycle:
         return -1 if lateral > 0.0 else 1
 
     def _bounds(
-        self, v: np.ndarray, measured: np.ndarray, z: float, dt: float, idx: tuple[int, ...]
+        self, v: np.ndarray, measured: np.ndarray, z: float, dt: float, idx: tuple[int, ...],
+        ref_vx: float = math.inf,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Per-cycle input bounds: limits, velocity limits, height range and anti-windup."""
+        """Per-cycle input bounds: limits, velocity limits, height range and anti-windup.
+
+        Whole body: the forward speed stays within ``max_speedup`` of the reference's
+        (``ref_vx`` [m/s]); the collision cone is left by turning or braking, not by running.
+        """
         p = self.params
         hi = self._limits.tolist()
         lo = [-x for x in hi]
         vy_max = p.max_lateral_speed if p.model == "holonomic" else 0.0
+        vx_max = p.max_speed
+        if self._body is not None:
+            vx_max = min(vx_max, max(ref_vx, 0.0) + p.max_speedup)
         v_lo = (-p.max_reverse_speed, -vy_max, -p.max_vertical_speed, -p.max_yaw_rate)
-        v_hi = (p.max_speed, vy_max, p.max_vertical_speed, p.max_yaw_rate)
+        v_hi = (vx_max, vy_max, p.max_vertical_speed, p.max_yaw_rate)
         vl, ml = v.tolist(), measured.tolist()
         for k, j in enumerate(idx):
             lo[k] = max(lo[k], (v_lo[j] - vl[j]) / dt)
