@@ -28,6 +28,7 @@ PYTHON_DEPS = [
     "numpy>=1.26",
     "scipy>=1.11",
     "osqp>=1.0",
+    "daqp>=0.11",
     "pybullet>=3.2.6",
     "PyYAML>=6",
     "matplotlib>=3.8",
