@@ -46,17 +46,32 @@ class QPResult(NamedTuple):
     """Result of :meth:`DenseQP.solve`.
 
     ``u``: the optimum (None if not found), exactly on the limits DAQP reports active;
-    ``infeasible``: proven infeasible; ``active``: the constraints in DAQP's working set at the
-    optimum (index ``i < n``: row ``i``; ``n + j``: ``u_j >= lo_j``; ``n + m + j``:
-    ``u_j <= hi_j``); ``iterations``: DAQP's iterations (of the cold re-solve, if there was
-    one); ``flag``: DAQP's exit flag (1 optimal, -1 infeasible, see DAQP's docs).
+    ``infeasible``: proven infeasible; ``iterations``: DAQP's iterations (of the cold
+    re-solve, if there was one); ``flag``: DAQP's exit flag (1 optimal, -1 infeasible, see
+    DAQP's docs); ``lam``: DAQP's multipliers (the ``m`` limits, then the rows), or None.
     """
 
     u: np.ndarray | None
     infeasible: bool
-    active: tuple[int, ...] = ()
     iterations: int = 0
     flag: int = 0
+    lam: np.ndarray | None = None
+
+    @property
+    def active(self) -> tuple[int, ...]:
+        """The working set at the optimum, e.g. to warm-start a similar QP.
+
+        Index ``i < n``: row ``i``; ``n + j``: ``u_j >= lo_j``; ``n + m + j``: ``u_j <= hi_j``.
+        """
+        if self.u is None or self.lam is None:
+            return ()
+        m = len(self.u)
+        n = len(self.lam) - m
+        lam_b = self.lam[:m].tolist()
+        rows = np.flatnonzero(self.lam[m:]).tolist()
+        lower = [n + j for j in range(m) if lam_b[j] < 0.0]
+        upper = [n + m + j for j in range(m) if lam_b[j] > 0.0]
+        return tuple(rows + lower + upper)
 
 
 class DenseQP:
@@ -71,8 +86,10 @@ class DenseQP:
         self._model: daqp.Model | None = None  # set up on the first solve
         self._bl = np.empty(self.m + n)  # DAQP order: the m simple bounds, then the rows
         self._bu = np.full(self.m + n, DAQP_INF)
+        self._box: tuple[list, list] = ([], [])  # the limits in _bl, _bu (as lists)
         self._cold = np.zeros(self.m + n, dtype=np.int32)
         self._tol = _PRIMAL_TOL
+        self._neg_w = -self.w  # f = -W u0
 
     def solve(self, u0, a, b, lo, hi, warm=None) -> QPResult:
         """Solve with rows ``a u >= b`` (``b <= -DAQP_INF``: row off) and ``lo <= u <= hi``.
@@ -88,53 +105,54 @@ class DenseQP:
 
         """
         m, bl, bu = self.m, self._bl, self._bu
-        bl[:m] = np.maximum(lo, -DAQP_INF)
-        bu[:m] = np.minimum(hi, DAQP_INF)
+        box = (lo.tolist(), hi.tolist())
+        new_box = box != self._box
+        if new_box:
+            np.maximum(lo, -DAQP_INF, out=bl[:m])
+            np.minimum(hi, DAQP_INF, out=bu[:m])
+            self._box = box
         bl[m:] = b
-        f = -(self.w @ u0)
-        tol = _primal_tol(u0)
-        sense = None if warm is None else self._sense(warm)
+        f = self._neg_w.dot(u0)
         model = self._model
         if model is None:
             model = self._model = daqp.Model()
-            model.setup(self.w, f, a, bu, bl, self._cold if sense is None else sense)
+            model.setup(self.w, f, a, bu, bl, self._cold)
+            self._tol = 0.0
+        tol = _primal_tol(u0)
+        if tol != self._tol:
             model.settings = {"primal_tol": tol}
             self._tol = tol
-            warm_started = sense is not None and bool(sense.any())
-        else:
-            if tol != self._tol:
-                model.settings = {"primal_tol": tol}
-                self._tol = tol
-            if sense is None:
-                model.update(f=f, A=a, blower=bl, bupper=bu)
-            else:
-                model.update(f=f, A=a, blower=bl, bupper=bu, sense=sense)
-            warm_started = sense is None or bool(sense.any())
+        warm_started = self._update(model, f, a, new_box, warm)
         x, _, flag, info = model.solve()
         if flag not in _OPTIMAL and warm_started:
             model.update(sense=self._cold)  # the verdict of a cold start counts
             x, _, flag, info = model.solve()
-        return self._result(x, flag, info)
-
-    def _result(self, x, flag: int, info) -> QPResult:
-        """The :class:`QPResult` of DAQP's ``(x, flag, info)``."""
-        iters = int(info["iterations"])
         if flag not in _OPTIMAL:
-            return QPResult(None, flag == _INFEASIBLE, (), iters, flag)
-        if not np.isfinite(x).all():
-            return QPResult(None, False, (), iters, flag)
-        lam = info["lam"].tolist()
-        m, n = self.m, self.n
-        u = np.array(x, dtype=float)
-        active = [i - m for i in range(m, m + n) if lam[i] != 0.0]  # rows (lower bound)
-        for j in range(m):  # an active limit holds exactly (DAQP's x has rounding there)
-            if lam[j] < 0.0:
-                u[j] = self._bl[j]
-                active.append(n + j)
-            elif lam[j] > 0.0:
-                u[j] = self._bu[j]
-                active.append(n + m + j)
-        return QPResult(u, False, tuple(active), iters, flag)
+            return QPResult(None, flag == _INFEASIBLE, info["iterations"], flag)
+        lam = info["lam"]
+        u = x.copy()
+        xs = x.tolist()
+        if not all(map(math.isfinite, xs)):
+            return QPResult(None, False, info["iterations"], flag)
+        for j, lam_j in enumerate(lam[:m].tolist()):  # a limit in the working set holds
+            if lam_j < 0.0:  # exactly (DAQP's x carries rounding there)
+                u[j] = bl[j]
+            elif lam_j > 0.0:
+                u[j] = bu[j]
+        return QPResult(u, False, info["iterations"], flag, lam)
+
+    def _update(self, model, f, a, new_box: bool, warm) -> bool:
+        """Pass the new data to DAQP: whether the solve starts from a non-empty working set."""
+        bl, bu = self._bl, self._bu
+        if warm is not None:
+            sense = self._sense(warm)
+            model.update(f=f, A=a, blower=bl, bupper=bu, sense=sense)
+            return bool(sense.any())
+        if new_box:
+            model.update(f=f, A=a, blower=bl, bupper=bu)
+        else:
+            model.update(f=f, A=a, blower=bl)
+        return True
 
     def _sense(self, warm) -> np.ndarray:
         """DAQP's constraint states for a warm start from ``warm`` (``QPResult.active``)."""
@@ -189,7 +207,6 @@ def solve_box_qp(w, u0, a, b, lo, hi, warm=()) -> QPResult:
     to start from (``QPResult.active`` of a similar problem; invalid ones ignored). See
     :meth:`DenseQP.solve` for the other arguments; ``b`` must be finite.
     """
+    u0, b, lo, hi = (np.asarray(v, dtype=float) for v in (u0, b, lo, hi))
     a = np.asarray(a, dtype=float).reshape(len(b), len(u0))
-    return DenseQP(w, len(b)).solve(
-        np.asarray(u0, dtype=float), a, np.asarray(b, dtype=float), lo, hi, tuple(warm)
-    )
+    return DenseQP(w, len(b)).solve(u0, a, b, lo, hi, tuple(warm))
