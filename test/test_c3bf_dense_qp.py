@@ -175,3 +175,10 @@ def test_workspaces_per_row_count_are_bounded_and_reset():
     assert len(qps._qps) <= 16
     qps.clear()
     assert not qps._qps
+
+
+def test_no_rows_only_limits_also_on_a_kept_workspace():
+    qps = DenseQPs(np.eye(2))
+    for u0 in ([3.0, 0.5], [-3.0, 2.0]):
+        res = qps.solve(np.array(u0), np.zeros((0, 2)), np.zeros(0), -np.ones(2), np.ones(2))
+        np.testing.assert_array_equal(res.u, np.clip(u0, -1.0, 1.0))

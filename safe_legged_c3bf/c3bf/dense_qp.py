@@ -113,16 +113,20 @@ class DenseQP:
             self._box = box
         bl[m:] = b
         f = self._neg_w.dot(u0)
+        tol = _primal_tol(u0)
         model = self._model
         if model is None:
+            sense = self._cold if warm is None else self._sense(warm)
             model = self._model = daqp.Model()
-            model.setup(self.w, f, a, bu, bl, self._cold)
-            self._tol = 0.0
-        tol = _primal_tol(u0)
-        if tol != self._tol:
+            model.setup(self.w, f, a, bu, bl, sense)
             model.settings = {"primal_tol": tol}
             self._tol = tol
-        warm_started = self._update(model, f, a, new_box, warm)
+            warm_started = bool(sense.any())
+        else:
+            if tol != self._tol:
+                model.settings = {"primal_tol": tol}
+                self._tol = tol
+            warm_started = self._update(model, f, a, new_box, warm)
         x, _, flag, info = model.solve()
         if flag not in _OPTIMAL and warm_started:
             model.update(sense=self._cold)  # the verdict of a cold start counts
@@ -143,15 +147,19 @@ class DenseQP:
 
     def _update(self, model, f, a, new_box: bool, warm) -> bool:
         """Pass the new data to DAQP: whether the solve starts from a non-empty working set."""
-        bl, bu = self._bl, self._bu
-        if warm is not None:
-            sense = self._sense(warm)
-            model.update(f=f, A=a, blower=bl, bupper=bu, sense=sense)
-            return bool(sense.any())
+        if warm is None and self.n and not new_box:  # the usual call
+            model.update(f=f, A=a, blower=self._bl)
+            return True
+        data = {"f": f, "blower": self._bl}
+        if self.n:  # (DAQP rejects an empty A in update)
+            data["A"] = a
         if new_box:
-            model.update(f=f, A=a, blower=bl, bupper=bu)
-        else:
-            model.update(f=f, A=a, blower=bl)
+            data["bupper"] = self._bu
+        if warm is not None:
+            sense = data["sense"] = self._sense(warm)
+            model.update(**data)
+            return bool(sense.any())
+        model.update(**data)
         return True
 
     def _sense(self, warm) -> np.ndarray:
