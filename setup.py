@@ -28,6 +28,7 @@ PYTHON_DEPS = [
     "numpy>=1.26",
     "scipy>=1.11",
     "osqp>=1.0",
+    "daqp>=0.11",
     "pybullet>=3.2.6",
     "PyYAML>=6",
     "matplotlib>=3.8",
@@ -66,7 +67,11 @@ setup(
     data_files=_data_files(),
     python_requires=">=3.11",
     install_requires=PYTHON_DEPS + ([] if os.environ.get("ROS_DISTRO") else ROS_WHEELS),
-    extras_require={"test": ["pytest>=8", "hypothesis>=6.100", "ruff>=0.6", "pytest-timeout"]},
+    extras_require={
+        "test": ["pytest>=8", "hypothesis>=6.100", "ruff>=0.6", "pytest-timeout"],
+        # Peers of benchmarks/peer_comparison.py (pulls JAX).
+        "bench": ["cbfpy==0.1.0", "elastiqp[jax]>=0.2"],
+    },
     zip_safe=False,
     maintainer="safe_legged_c3bf maintainers",
     maintainer_email="maintainers@safe-legged-c3bf.invalid",

@@ -1,4 +1,4 @@
-"""The exact active-set QP solver: against brute-force KKT enumeration, OSQP and an LP."""
+"""The exact active-set QP solver (DAQP): against brute-force KKT enumeration, OSQP and an LP."""
 
 import numpy as np
 import osqp
@@ -7,7 +7,7 @@ import scipy.sparse as sp
 from scipy.optimize import linprog
 from test_c3bf_filter import brute_force_qp
 
-from safe_legged_c3bf.c3bf.active_set import solve_box_qp
+from safe_legged_c3bf.c3bf.dense_qp import solve_box_qp
 
 
 def osqp_reference(W, u0, A, b, lo, hi):
@@ -68,7 +68,7 @@ def test_matches_brute_force_and_osqp_on_random_problems():
     counts = {"optimum": 0, "infeasible": 0}
     for trial in range(400):
         W, u0, A, b, lo, hi = random_problem(rng, trial)
-        res = solve_box_qp(np.linalg.inv(W), u0, A, b, lo, hi)
+        res = solve_box_qp(W, u0, A, b, lo, hi)
         u_bf, cost_bf = brute_force_qp(A, b, u0, W, lo, hi)
         u_osqp, status = osqp_reference(W, u0, A, b, lo, hi)
         if res.u is None:
@@ -93,7 +93,7 @@ def test_infeasibility_certificates_agree_with_an_lp():
     rng = np.random.default_rng(11)
     for trial in range(300):
         W, u0, A, b, lo, hi = random_problem(rng, trial)
-        res = solve_box_qp(np.linalg.inv(W), u0, A, b, lo, hi)
+        res = solve_box_qp(W, u0, A, b, lo, hi)
         t = feasibility_margin(A, b, lo, hi)
         if res.infeasible:
             assert t < 1e-9, trial
@@ -123,7 +123,7 @@ def test_degenerate_vertex_with_more_active_rows_than_inputs():
 def test_single_row_is_the_closed_form(w):
     a = np.array([[0.6, 0.0, 0.8]])
     u0 = np.array([0.1, 0.2, -0.3])
-    res = solve_box_qp(np.linalg.inv(w), u0, a, np.array([1.0]), -np.full(3, 9.0), np.full(3, 9.0))
+    res = solve_box_qp(w, u0, a, np.array([1.0]), -np.full(3, 9.0), np.full(3, 9.0))
     w_inv_a = np.linalg.solve(w, a[0])
     expected = u0 + w_inv_a * (1.0 - a[0] @ u0) / (a[0] @ w_inv_a)
     np.testing.assert_allclose(res.u, expected, rtol=1e-12, atol=1e-12)
@@ -145,8 +145,7 @@ def test_warm_start_from_any_rows_gives_the_same_optimum():
     warm_used = 0
     for trial in range(400):
         W, u0, A, b, lo, hi = random_problem(rng, trial)
-        w_inv = np.linalg.inv(W)
-        cold = solve_box_qp(w_inv, u0, A, b, lo, hi)
+        cold = solve_box_qp(W, u0, A, b, lo, hi)
         n_rows = len(b) + np.isfinite(lo).sum() + np.isfinite(hi).sum()
         candidates = [
             cold.active,  # the exact optimum's active rows: no step needed
@@ -157,10 +156,10 @@ def test_warm_start_from_any_rows_gives_the_same_optimum():
         # A neighbouring problem warm-started from this one's active set (the filter's use).
         u0_next = u0 + rng.normal(scale=0.05, size=u0.shape)
         b_next = b + rng.normal(scale=0.01, size=b.shape)
-        ref_next = solve_box_qp(w_inv, u0_next, A, b_next, lo, hi)
-        got_next = solve_box_qp(w_inv, u0_next, A, b_next, lo, hi, warm=cold.active)
+        ref_next = solve_box_qp(W, u0_next, A, b_next, lo, hi)
+        got_next = solve_box_qp(W, u0_next, A, b_next, lo, hi, warm=cold.active)
         for ref, got in [(ref_next, got_next)] + [
-            (cold, solve_box_qp(w_inv, u0, A, b, lo, hi, warm=w)) for w in candidates
+            (cold, solve_box_qp(W, u0, A, b, lo, hi, warm=w)) for w in candidates
         ]:
             assert got.infeasible == ref.infeasible, trial
             assert (got.u is None) == (ref.u is None), trial

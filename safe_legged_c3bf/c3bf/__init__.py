@@ -1,6 +1,6 @@
 """C3BF core: collision-cone control barrier functions and the safety-filter QP.
 
-Pure numpy/scipy/osqp (no rclpy). SI units, odom frame, REP-103 (x forward, z up).
+Pure numpy/scipy/osqp/daqp (no rclpy). SI units, odom frame, REP-103 (x forward, z up).
 See ``doc/c3bf_api.md`` for the API and an example.
 """
 

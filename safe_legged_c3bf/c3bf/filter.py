@@ -16,12 +16,12 @@ Solution strategy (every path returns the exact optimum of that problem, or says
    constraint ``a u >= b`` the minimiser over that half-space alone is
    ``u* = u_ref + W^-1 a^T (b - a u_ref) / (a W^-1 a^T)``. The half-space contains the
    feasible set, so if ``u*`` is within the limits it is the optimum (``'closed_form'``).
-3. Otherwise (several obstacles, or an active limit) the exact dual active-set method of
-   Goldfarb and Idnani over the rows and the finite limits (``active_set.solve_box_qp``;
-   ``'active_set'``). Its first step is the closed-form projection onto the most violated
-   row; it ends with the optimum (KKT point of a strictly convex QP) or with a Farkas
-   certificate of infeasibility (then step 5). Constraint rows are scaled to unit norm (same
-   feasible set, better conditioning). The answer is verified (every row within 1e-9).
+3. Otherwise (several obstacles, or an active limit) an exact dual active-set method over
+   the rows and the limits: DAQP, compiled, one workspace per row count warm started from the
+   last call's working set (``dense_qp``; ``'active_set'``). It ends with the optimum (KKT
+   point of a strictly convex QP) or with a certificate of infeasibility (then step 5).
+   Constraint rows are scaled to unit norm (same feasible set, better conditioning). The
+   answer is verified (every row within 1e-9).
 4. Fallback, and always with ``method='qp'``: OSQP (osqp 1.x). One solver object per problem
    size is set up once with a fixed sparsity pattern and then only updated (``q``, ``l``,
    ``u``, ``Ax``) and warm started. Rows that cannot bind inside the input box are
@@ -51,7 +51,7 @@ beyond ``domain.REF_RATIO_MAX`` x the input scale is answered only where the ans
 
 This module holds the policy (which step answers, statuses, messages); the parts live in
 ``filter_inputs`` (validation), ``rows`` (barrier terms, unit-norm rows), ``closed_form``
-(step 2), ``active_set`` (step 3), ``osqp_qp`` (steps 4-5), ``inside`` (step 6) and
+(step 2), ``dense_qp`` (step 3), ``osqp_qp`` (steps 4-5), ``inside`` (step 6) and
 ``filter_outputs`` (the :class:`~.result.FilterResult`).
 """
 
@@ -65,11 +65,11 @@ from typing import Literal
 import numpy as np
 import osqp
 
-from .active_set import solve_box_qp
 from .barrier import DEFAULT_V_EPS
 from .body import RobotBody
 from .body_rows import body_rows, per_obstacle
 from .closed_form import cbf_closed_form, one_obstacle
+from .dense_qp import DAQP_INF, DenseQPs
 from .domain import REF_RATIO_MAX, checked_scalar, far_reference_error
 from .errors import InvalidInputError
 from .filter_inputs import FLOAT_MAX, Bounds, check_bounds, check_weights, check_yaw, vector
@@ -78,7 +78,7 @@ from .geometry import Obstacles
 from .inside import INSIDE_REL_CLEARANCE, escape_input, inside_rows, rows_of
 from .lie import reference_directions
 from .models import PointKinematics, RobotModel
-from .osqp_qp import INFEASIBLE, OSQP_INF, RETRYABLE, QPSolvers
+from .osqp_qp import INFEASIBLE, RETRYABLE, QPSolvers
 from .result import FilterResult, FilterStatus
 from .rows import FEAS_TOL, ROUND_TOL, Rows, Terms, obstacle_terms, scale_rows, screen_rows
 from .solver_status import describe_osqp_status
@@ -171,7 +171,7 @@ class SafetyFilter:
         self.escape_accel = checked_scalar("escape_accel", escape_accel, 0.0)
         self.exit_speed = checked_scalar("exit_speed", exit_speed, 0.0)
         self._qp = QPSolvers(w, relax_penalty, osqp_settings)
-        self._warm: tuple = (None, ())  # (row layout, active rows) of the last active-set solve
+        self._dense = DenseQPs(w)  # DAQP workspaces (warm started), one per row count
         if body is not None and not isinstance(body, RobotBody):
             raise InvalidInputError("body must be a RobotBody or None")
         self.body = body
@@ -249,9 +249,9 @@ class SafetyFilter:
         )
 
     def reset(self) -> None:
-        """Drop the cached OSQP solvers and active set (warm starts restart from scratch)."""
+        """Drop the cached OSQP and DAQP solvers (warm starts restart from scratch)."""
         self._qp.clear()
-        self._warm = (None, ())
+        self._dense.clear()
 
     # ------------------------------------------------------------------ internals
     def _filter_body(self, x, u0, ul, obs: Obstacles, yaw, t0) -> FilterResult:
@@ -309,23 +309,19 @@ class SafetyFilter:
         return self._solve_osqp(x, u0, yaw, terms, rows, infeasible, t0)
 
     def _active_set(self, u0, rows: Rows):
-        """Exact dual active-set solve: ``(u or None, infeasible)``; ``u`` verified."""
+        """Exact dual active-set solve (DAQP): ``(u or None, infeasible)``; ``u`` verified.
+
+        Rows ``u`` cannot influence (``rows.dead``) are switched off. The workspace for this
+        row count starts from its last working set (``dense_qp``).
+        """
         cur = self._cur
-        any_dead = rows.any_dead
-        live = ~rows.dead if any_dead else slice(None)
-        # Warm start from the last call's active rows when the row layout is the same.
-        layout = (len(rows.bn), cur.finite) if not any_dead else None
-        warm = self._warm[1] if layout is not None and self._warm[0] == layout else ()
-        sol = solve_box_qp(
-            self._w_inv, u0, rows.Gn[live], rows.bn[live], cur.lo, cur.hi, cur.finite, warm
-        )
-        self._warm = (layout, sol.active)
+        lo_rows = np.where(rows.dead, -DAQP_INF, rows.bn) if rows.any_dead else rows.bn
+        sol = self._dense.solve(u0, rows.Gn, lo_rows, cur.lo, cur.hi)
         if sol.u is not None:
             u = np.minimum(np.maximum(sol.u, cur.lo), cur.hi)  # np.clip, less overhead
-            lo_rows = np.where(rows.dead, -OSQP_INF, rows.bn) if any_dead else rows.bn
             if self._verify(u, rows.Gn, lo_rows):
                 return u, False
-        return None, sol.infeasible  # infeasible: a Farkas certificate
+        return None, sol.infeasible  # infeasible: DAQP's certificate (confirmed cold)
 
     def _solve_osqp(self, x, u0, yaw, terms: Terms, rows: Rows, infeasible, t0):
         """OSQP on the rows that can bind inside the box; the relaxed QP if infeasible."""
