@@ -34,7 +34,7 @@ __all__ = [
 
 ROW_ZERO = 1e-12  # ||Lg h|| below this: the constraint does not depend on u
 FEAS_TOL = 1e-9  # accepted violation of a unit-norm row [input units], times (1 + |u|)
-ROUND_TOL = 1e-11  # plus this times ||u_ref|| (rounding of u - u_ref, see active_set)
+ROUND_TOL = 1e-11  # plus this times ||u_ref|| (rounding of u - u_ref, see dense_qp)
 ACTIVE_TOL = 1e-7  # scaled constraint value below which a row counts as binding
 SCALAR_TERMS_MAX = 16  # obstacles up to which barrier terms are computed per obstacle
 
