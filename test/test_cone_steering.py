@@ -45,3 +45,18 @@ def test_no_free_heading_keeps_the_reference_for_the_qp_to_brake():
     ring = [[math.cos(a), math.sin(a)] for a in np.linspace(0, 2 * math.pi, 24, endpoint=False)]
     out = s.steer(0.0, (0, 0), 0.0, 0.4, 0.0, ring, np.zeros((24, 2)), [0.3] * 24, 1.0)
     assert not out.free and (out.vx, out.yaw_rate) == (0.4, 0.0)
+
+
+def test_a_free_heading_is_kept_off_the_cone_edge_and_not_turned_into_it():
+    """Walking past a pillar on its left, a reference turning right towards the goal is
+    clamped inside the free headings (EDGE_STEPS off the edge), not let into the cone."""
+    s = ConeSteering(20.0, 0.2, 0.5, 1.5)
+    pillar = ([[2.0, -0.3]], [[0.0, 0.0]], [0.3])
+    out = s.steer(0.0, (0, 0), 0.6, 0.4, -2.0, *pillar, 1.0, speed=0.4)
+    assert out.vx == 0.4 and out.side == 1  # kept walking, turned less than asked
+    assert -2.0 < out.yaw_rate
+    edge = ~blocked_headings(np.radians(np.arange(0, 90)), 0.4, np.array([[2.0, -0.3]]),
+                             np.zeros((1, 2)), np.array([0.5]), 20.0)
+    first_free = math.radians(int(np.argmax(edge)))
+    target = 0.6 + out.yaw_rate / 1.5  # the heading the steering aims at
+    assert target >= first_free + math.radians(5.0) - 1e-9

@@ -27,8 +27,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["START_SPEED", "SWITCH_MARGIN", "ConeSteering", "Steer", "blocked_headings"]
+__all__ = ["EDGE_STEPS", "START_SPEED", "SWITCH_MARGIN", "ConeSteering", "Steer", "blocked_headings"]
 
+EDGE_STEPS = 2
+"""Heading steps (of ``heading_step``) the steering keeps off a cone's edge."""
 START_SPEED = 0.1
 """Commanded speed [m/s] below which a blocked heading is turned in place before walking."""
 SWITCH_MARGIN = math.radians(45.0)
@@ -103,6 +105,9 @@ class ConeSteering:
         w = np.asarray(velocities, dtype=float)
         r = np.asarray(radii, dtype=float) + self.robot_radius
         psi_ref = yaw + wz_ref * self.lookahead
+        if not blocked_headings(np.array([yaw]), vx_ref, p, w, r, self.horizon)[0]:
+            return self._within_free_interval(yaw, psi_ref, vx_ref, wz_ref, p, w, r,
+                                              max_yaw_rate)
         if not blocked_headings(np.array([psi_ref]), vx_ref, p, w, r, self.horizon)[0]:
             return Steer(vx_ref, wz_ref, 0, True)
         side = self._pick_side(t, psi_ref, vx_ref, p, w, r)
@@ -114,19 +119,42 @@ class ConeSteering:
         # From (near) rest, forward only along a free heading: turn in place first (the
         # barrier would refuse the forward part and, with it, most of the turn). Once
         # walking, the QP turns the robot out of the cone itself.
-        if speed < START_SPEED and blocked_headings(
-            np.array([yaw]), vx_ref, p, w, r, self.horizon
-        )[0]:
+        if speed < START_SPEED:
             return Steer(0.0, wz, offset_side, True)
         return Steer(vx_ref * max(math.cos(error), 0.0), wz, offset_side, True)
+
+    def _within_free_interval(self, yaw, psi_ref, vx_ref, wz_ref, p, w, r, max_yaw_rate):
+        """From a free heading: the reference turn, kept inside the free headings around it.
+
+        The free interval is scanned from the yaw to each side up to the first blocked
+        heading; a reference heading beyond it (or on its far side) is clamped one
+        ``heading_step`` inside its edge, so the robot follows the cone's edge instead of
+        turning into the cone and being braked there.
+        """
+        edges = []
+        for offsets in (self._left, self._right):
+            blocked = blocked_headings(yaw + offsets, vx_ref, p, w, r, self.horizon)
+            k = int(np.argmax(blocked)) if blocked.any() else len(offsets)
+            k -= EDGE_STEPS  # keep off the cone's edge, where every row's h is 0
+            edges.append(float(offsets[k - 1]) if k > 0 else 0.0)
+        hi, lo = edges[0], edges[1]  # free offsets from the yaw: [lo, hi], lo <= 0 <= hi
+        if hi >= math.pi - 1e-9 and lo <= -math.pi + 1e-9:
+            return Steer(vx_ref, wz_ref, 0, True)  # nothing blocked anywhere
+        error = math.remainder(psi_ref - yaw, math.tau)
+        clamped = min(max(error, lo), hi)
+        if clamped == error:
+            return Steer(vx_ref, wz_ref, 0, True)
+        wz = max(-max_yaw_rate, min(max_yaw_rate, self.heading_gain * clamped))
+        return Steer(vx_ref, wz, 1 if clamped > error else -1, True)
 
     def _pick_side(self, t, psi_ref, speed, p, w, r) -> tuple[int, float] | None:
         """(side, heading offset [rad]) of the nearest free heading; the kept side first."""
         best = {}
         for side, offsets in ((1, self._left), (-1, self._right)):
             free = ~blocked_headings(psi_ref + offsets, speed, p, w, r, self.horizon)
-            if free.any():
-                best[side] = float(offsets[int(np.argmax(free))])
+            if free.any():  # EDGE_STEPS beyond the first free heading: off the cone's edge
+                k = min(int(np.argmax(free)) + EDGE_STEPS, len(offsets) - 1)
+                best[side] = float(offsets[k])
         if not best:
             return None
         kept = self._side if t - self._side_time <= self.side_memory else 0
