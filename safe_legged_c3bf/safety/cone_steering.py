@@ -27,7 +27,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["EDGE_STEPS", "START_SPEED", "SWITCH_MARGIN", "ConeSteering", "Steer", "blocked_headings"]
+__all__ = [
+    "EDGE_STEPS", "START_SPEED", "SWITCH_MARGIN", "ConeSteering", "Steer", "blocked_headings",
+]
 
 EDGE_STEPS = 2
 """Heading steps (of ``heading_step``) the steering keeps off a cone's edge."""
