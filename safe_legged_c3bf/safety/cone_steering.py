@@ -29,6 +29,7 @@ import numpy as np
 
 __all__ = [
     "EDGE_STEPS", "START_SPEED", "SWITCH_MARGIN", "ConeSteering", "Steer", "blocked_headings",
+    "cover_half_width",
 ]
 
 EDGE_STEPS = 2
@@ -47,6 +48,17 @@ class Steer:
     yaw_rate: float
     side: int  # +1 turned left of the reference heading, -1 right, 0 unchanged
     free: bool  # a free heading was found (False: the reference is kept, the QP brakes)
+
+
+def cover_half_width(body) -> float:  # noqa: ANN001 - a c3bf RobotBody or None
+    """The robot's disc for steering [m]: its cover's half width (footprint circles' reach
+    in y); 0 without a body (the point model's circles are already grown by its width).
+    """
+    if body is None:
+        return 0.0
+    off, rad, pl = body.arrays
+    vertical = pl == 0
+    return float((np.abs(off[vertical, 1]) + rad[vertical]).max())
 
 
 def blocked_headings(psi, speed, p, w, radius, horizon) -> np.ndarray:

@@ -44,7 +44,8 @@ from safe_legged_c3bf.c3bf.body import robot_body
 from safe_legged_c3bf.interfaces.base_state import BaseState
 from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
 from safe_legged_c3bf.interfaces.rotations import yaw_from_quaternion
-from safe_legged_c3bf.safety.cone_steering import ConeSteering
+from safe_legged_c3bf.safety.cone_steering import ConeSteering, cover_half_width
+from safe_legged_c3bf.safety.deadlock_side import deadlock_side
 from safe_legged_c3bf.safety.obstacle_input import (
     ObstacleInput,
     ObstacleSet,
@@ -151,7 +152,7 @@ class SafetyFilterCycle:
         self._limits = limits
         self._body = robot_body(p.robot_body) if p.body_model == "body" else None
         self._steering = ConeSteering(
-            p.steer_horizon, self._steer_radius(), p.steer_lookahead, p.steer_gain
+            p.steer_horizon, cover_half_width(self._body), p.steer_lookahead, p.steer_gain
         )
         self.filter = SafetyFilter(
             model, gamma=p.gamma, weights=np.array(p.weights), u_min=-limits, u_max=limits,
@@ -162,17 +163,6 @@ class SafetyFilterCycle:
         """Replace the parameters (validated) and rebuild the QP."""
         self.params = params.validate()
         self._build()
-
-    def _steer_radius(self) -> float:
-        """The robot's disc for cone steering [m]: its cover's half width (whole body).
-
-        0 for the point model (its circles are already grown by robot_width / 2).
-        """
-        if self._body is None:
-            return 0.0
-        off, rad, pl = self._body.arrays
-        vertical = pl == 0
-        return float((np.abs(off[vertical, 1]) + rad[vertical]).max())
 
     def _steer(self, t: float, ref_arr: np.ndarray, circles, pos, yaw: float) -> str:  # noqa: ANN001
         """Cone steering of the reference (whole body, unicycle; ``cone_steering``); what it did.
@@ -463,7 +453,7 @@ class SafetyFilterCycle:
         if not stuck:
             return False
         if self._detour_side == 0 or t - self._detour_time > p.deadlock_memory:
-            side = self._deadlock_side(circles, pos, yaw)
+            side = deadlock_side(circles, pos, yaw, p.offset)
             if side == 0:
                 return False
             self._detour_side = side
@@ -471,28 +461,6 @@ class SafetyFilterCycle:
         self._detour_until = t + p.deadlock_turn_time
         ref_arr[3] = self._detour_side * p.deadlock_yaw_rate
         return True
-
-    def _deadlock_side(self, circles, pos: np.ndarray, yaw: float) -> int:  # noqa: ANN001
-        """Turn side (+1 left, -1 right) for the deadlock turn; 0 without vertical obstacles."""
-        vertical = np.asarray(circles.plane) == 0
-        if not vertical.any():
-            return 0
-        c, s = math.cos(yaw), math.sin(yaw)
-        body = np.array([pos[0] + self.params.offset * c, pos[1] + self.params.offset * s])
-        away = body - circles.center[vertical]  # from each obstacle to the body point
-        dist = np.linalg.norm(away, axis=1)
-        gap = dist - circles.radius[vertical]
-        near = gap < 1.0
-        if near.any():
-            unit = away[near] / np.maximum(dist[near], 1e-9)[:, None]
-            left = np.array([-s, c])  # body-point velocity direction of a left turn
-            score_left = float(np.min(unit @ left))
-            score_right = float(np.min(unit @ -left))
-            if abs(score_left - score_right) > 0.1:
-                return 1 if score_left > score_right else -1
-        nearest = -away[int(np.argmin(gap))]
-        lateral = -s * nearest[0] + c * nearest[1]  # + = obstacle on the left
-        return -1 if lateral > 0.0 else 1
 
     def _bounds(
         self, v: np.ndarray, measured: np.ndarray, z: float, dt: float, idx: tuple[int, ...],
