@@ -51,8 +51,10 @@ class Steer:
 
 
 def cover_half_width(body) -> float:  # noqa: ANN001 - a c3bf RobotBody or None
-    """The robot's disc for steering [m]: its cover's half width (footprint circles' reach
-    in y); 0 without a body (the point model's circles are already grown by its width).
+    """The robot's disc for steering [m]: its cover's half width.
+
+    The footprint circles' reach in y; 0 without a body (the point model's circles are
+    already grown by its width).
     """
     if body is None:
         return 0.0
