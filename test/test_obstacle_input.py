@@ -16,28 +16,41 @@ from safe_legged_c3bf.safety.obstacle_input import (
 from safe_legged_c3bf.safety.safety_cycle import CycleStatus, SafetyFilterCycle
 
 
+def _cover(ob):
+    """The circles of one obstacle, written out: ``[(offset (2,), radius)]`` in its plane."""
+    a, b = (float(x) for x in ob.semi_axes)
+    major, minor = max(a, b), min(a, b)
+    if major <= 1.5 * minor:
+        return [(np.zeros(2), major)]
+    k = min(math.ceil(major / minor), 8)
+    axis = ob.orientation + (0.0 if a >= b else 0.5 * math.pi)
+    u = np.array([math.cos(axis), math.sin(axis)])
+    return [((-major + (2 * j + 1) * major / k) * u, math.hypot(major / k, minor))
+            for j in range(k)]
+
+
 def reference_circles(obstacles, dt, robot_y, width, height, margin, y_margin, yaw, tie):
     """The per-obstacle loop the vectorised conversion replaced (kept as the reference)."""
     centers, velocities, radii, planes, ids = [], [], [], [], []
     for ob in obstacles:
         c = np.asarray(ob.center, dtype=float) + dt * np.asarray(ob.velocity, dtype=float)
         v = np.asarray(ob.velocity, dtype=float)
-        a = float(np.max(ob.semi_axes))
-        if ob.plane == int(Plane.VERTICAL):
-            right = (math.sin(yaw), -math.cos(yaw))
-            centers.append((c[0] + tie * right[0], c[1] + tie * right[1]))
-            velocities.append((v[0], v[1]))
-            radii.append(a + 0.5 * width + margin + tie)
-            planes.append(int(Plane.VERTICAL))
-        else:
-            half_span = 0.5 * ob.extent + 0.5 * width + y_margin
-            if abs(robot_y - c[1]) > half_span:
-                continue
-            centers.append((c[0], c[2]))
-            velocities.append((v[0], v[2]))
-            radii.append(a + 0.5 * height + margin)
-            planes.append(int(Plane.HORIZONTAL))
-        ids.append(ob.id)
+        for off, a in _cover(ob):
+            if ob.plane == int(Plane.VERTICAL):
+                right = (math.sin(yaw), -math.cos(yaw))
+                centers.append((c[0] + off[0] + tie * right[0], c[1] + tie * right[1] + off[1]))
+                velocities.append((v[0], v[1]))
+                radii.append(a + 0.5 * width + margin + tie)
+                planes.append(int(Plane.VERTICAL))
+            else:
+                half_span = 0.5 * ob.extent + 0.5 * width + y_margin
+                if abs(robot_y - c[1]) > half_span:
+                    continue
+                centers.append((c[0] + off[0], c[2] + off[1]))
+                velocities.append((v[0], v[2]))
+                radii.append(a + 0.5 * height + margin)
+                planes.append(int(Plane.HORIZONTAL))
+            ids.append(ob.id)
     if not centers:
         return Obstacles.empty(), []
     return Obstacles(np.array(centers), np.array(velocities), np.array(radii),
@@ -49,6 +62,7 @@ def random_inputs(rng, n, planes=(0, 1)):
         ObstacleInput(
             f"o{i}", int(rng.choice(planes)), rng.uniform(-5, 5, 3), rng.uniform(-1, 1, 3),
             rng.uniform(0.05, 0.6, 2), float(rng.uniform(0.2, 4.0)),
+            float(rng.uniform(-np.pi, np.pi)),
         )
         for i in range(n)
     ]

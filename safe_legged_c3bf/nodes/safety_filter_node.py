@@ -57,6 +57,7 @@ def obstacles_from_msg(
             [(o.velocity.x, o.velocity.y, o.velocity.z) for o in obs],
             [(o.semi_axis_a, o.semi_axis_b) for o in obs],
             [o.extent for o in obs],
+            [o.orientation for o in obs],
         )
     except InvalidInputError:
         return None

@@ -19,6 +19,7 @@ import numpy as np
 
 from safe_legged_c3bf.c3bf import InvalidInputError, Obstacles, Plane
 from safe_legged_c3bf.c3bf.domain import MAX_MAGNITUDE
+from safe_legged_c3bf.safety.elongated import ELONGATION, ellipse_cover
 
 _VERTICAL = frozenset({Plane.VERTICAL})
 
@@ -34,6 +35,7 @@ class ObstacleInput:
         velocity: (3,) velocity in odom (m/s).
         semi_axes: (2,) ellipse semi-axes (m).
         extent: length along the extrusion axis (m): z for VERTICAL, y for HORIZONTAL.
+        orientation: angle of semi-axis a from odom x within the plane (rad).
 
     """
 
@@ -43,6 +45,7 @@ class ObstacleInput:
     velocity: np.ndarray
     semi_axes: np.ndarray
     extent: float
+    orientation: float = 0.0
 
     def is_valid(self) -> bool:
         """True when every number is finite, sizes are positive and the plane is known."""
@@ -53,6 +56,7 @@ class ObstacleInput:
             and np.all(np.isfinite(self.semi_axes))
             and np.all(np.asarray(self.semi_axes) > 0)
             and np.isfinite(self.extent)
+            and np.isfinite(self.orientation)
         )
 
 
@@ -68,6 +72,9 @@ class ObstacleSet:
         size: ``(n,)`` largest semi-axis (m): the radius of the circle around the ellipse.
         extent: ``(n,)`` length along the extrusion axis (m).
         all_vertical: every obstacle is VERTICAL.
+        semi_axes: ``(n, 2)`` the ellipse semi-axes (m).
+        orientation: ``(n,)`` angle of semi-axis a from odom x in the plane (rad).
+        all_round: no obstacle is elongated (``elongated.ELONGATION``): one circle each.
 
     """
 
@@ -78,7 +85,18 @@ class ObstacleSet:
     size: np.ndarray
     extent: np.ndarray
     all_vertical: bool
+    semi_axes: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    orientation: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    all_round: bool = True
     _radii: dict = field(default_factory=dict, repr=False)  # inflated radii per parameters
+
+    @cached_property
+    def cover(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(index, offset, radius)`` of the circles covering every obstacle.
+
+        ``elongated.ellipse_cover``: one circle of the largest semi-axis when round.
+        """
+        return ellipse_cover(self.semi_axes, self.orientation)
 
     @cached_property
     def xy(self) -> tuple[np.ndarray, np.ndarray]:
@@ -101,7 +119,9 @@ class ObstacleSet:
         return r
 
     @classmethod
-    def from_arrays(cls, ids, plane, center, velocity, semi_axes, extent) -> ObstacleSet:
+    def from_arrays(
+        cls, ids, plane, center, velocity, semi_axes, extent, orientation=None
+    ) -> ObstacleSet:
         """Validate and store one obstacle list.
 
         Args:
@@ -111,6 +131,7 @@ class ObstacleSet:
             velocity: ``(n, 3)`` velocities (m/s).
             semi_axes: ``(n, 2)`` ellipse semi-axes (m).
             extent: ``(n,)`` extents (m).
+            orientation: ``(n,)`` angles of semi-axis a (rad); None: 0.
 
         Raises:
             InvalidInputError: wrong shapes, a non-finite number, a semi-axis <= 0, an
@@ -126,6 +147,8 @@ class ObstacleSet:
             v = np.array(velocity, dtype=float).reshape(n, 3)
             ax = np.asarray(semi_axes, dtype=float).reshape(n, 2)
             ext = np.array(extent, dtype=float).reshape(n)
+            ori = np.zeros(n) if orientation is None else np.array(
+                orientation, dtype=float).reshape(n)
         except (TypeError, ValueError) as exc:
             raise InvalidInputError(f"obstacle arrays do not match {n} ids: {exc}") from exc
         ok = (
@@ -135,6 +158,7 @@ class ObstacleSet:
             and np.isfinite(ax).all()
             and (ax > 0).all()
             and np.isfinite(ext).all()
+            and np.isfinite(ori).all()
         )
         if not ok:
             raise InvalidInputError("obstacle with NaN/Inf, a semi-axis <= 0 or an unknown plane")
@@ -145,9 +169,11 @@ class ObstacleSet:
                 f"(|x| <= {MAX_MAGNITUDE:g} m, m/s)"
             )
         arrays = (pl.astype(np.intp), c, v, ax.max(axis=1), ext)
-        for arr in arrays:
+        for arr in (*arrays, ax, ori):
             arr.setflags(write=False)
-        return cls(ids, *arrays, all_vertical=bool((pl == int(Plane.VERTICAL)).all()))
+        round_ = bool((ax.max(axis=1) <= ELONGATION * ax.min(axis=1)).all())
+        return cls(ids, *arrays, all_vertical=bool((pl == int(Plane.VERTICAL)).all()),
+                   semi_axes=ax, orientation=ori, all_round=round_)
 
     @classmethod
     def from_inputs(cls, obstacles: Sequence[ObstacleInput]) -> ObstacleSet:
@@ -159,6 +185,7 @@ class ObstacleSet:
             [o.velocity for o in obstacles],
             [o.semi_axes for o in obstacles],
             [o.extent for o in obstacles],
+            [o.orientation for o in obstacles],
         )
 
     def __len__(self) -> int:
@@ -187,6 +214,9 @@ def to_c3bf_obstacles(
     diameters [m] vertical and horizontal circles grow by (0 for the whole-body filter, which
     grows them by each body point's radius).
 
+    Elongated obstacles (``elongated.ELONGATION``) become a row of circles along their major
+    axis, each with the obstacle's id (so an id may repeat in the result).
+
     Symmetry breaking: dead ahead of a unicycle the barrier's sensitivity to steering is
     exactly zero, so a head-on obstacle can only be braked for (and a faster mover cannot be
     escaped). Each vertical circle is therefore moved ``tie_break`` m to the robot's right and
@@ -203,7 +233,7 @@ def to_c3bf_obstacles(
         return Obstacles.empty(), []
     plane = obstacles.plane
     ids = list(obstacles.ids)
-    if obstacles.all_vertical:  # the common case (pillars, people): fewer operations
+    if obstacles.all_vertical and obstacles.all_round:  # pillars, people: fewer operations
         # (x, y) moved tie_break to the robot's right (sin yaw, -cos yaw).
         c2, velocity = obstacles.xy
         center = (c2 + dt_predict * velocity) + np.array(
@@ -215,30 +245,32 @@ def to_c3bf_obstacles(
         return Obstacles.from_validated(center, velocity, radius, plane, _VERTICAL), ids
     c = obstacles.center + dt_predict * obstacles.velocity
     vel = obstacles.velocity
-    size = obstacles.size
     vertical = plane == int(Plane.VERTICAL)
     half_width = 0.5 * robot_width if bar_half_width is None else bar_half_width
     half_span = 0.5 * obstacles.extent + half_width + horizontal_y_margin
     keep = vertical | (np.abs(robot_y - c[:, 1]) <= half_span)
+    # Every kept obstacle as its covering circles (elongated ones: a row, ``elongated``).
+    index, offset, cover_r = obstacles.cover
+    rows = keep[index]
+    oi, off, cover_r = index[rows], offset[rows], cover_r[rows]
+    if oi.size == 0:
+        return Obstacles.empty(), []
+    v = vertical[oi]
     # Vertical: (x, y) moved tie_break to the robot's right; bars: (x, z), kept only
     # while the robot's y is within their extent (see above).
-    center = np.empty((len(obstacles), 2))
-    center[:, 0] = c[:, 0] + np.where(vertical, tie_break * math.sin(robot_yaw), 0.0)
-    center[:, 1] = np.where(vertical, c[:, 1] + tie_break * -math.cos(robot_yaw), c[:, 2])
-    velocity = np.empty((len(obstacles), 2))
-    velocity[:, 0] = vel[:, 0]
-    velocity[:, 1] = np.where(vertical, vel[:, 1], vel[:, 2])
+    center = np.empty((oi.size, 2))
+    center[:, 0] = c[oi, 0] + off[:, 0] + np.where(v, tie_break * math.sin(robot_yaw), 0.0)
+    center[:, 1] = np.where(v, c[oi, 1] + tie_break * -math.cos(robot_yaw), c[oi, 2]) + off[:, 1]
+    velocity = np.empty((oi.size, 2))
+    velocity[:, 0] = vel[oi, 0]
+    velocity[:, 1] = np.where(v, vel[oi, 1], vel[oi, 2])
     radius = np.where(
-        vertical,
-        size + 0.5 * robot_width + safety_margin + tie_break,
-        size + 0.5 * robot_height + safety_margin,
+        v,
+        cover_r + 0.5 * robot_width + safety_margin + tie_break,
+        cover_r + 0.5 * robot_height + safety_margin,
     )
-    if not keep.all():
-        center, velocity, radius = center[keep], velocity[keep], radius[keep]
-        plane = plane[keep]
-        ids = [i for i, k in zip(ids, keep.tolist(), strict=True) if k]
-        if not ids:
-            return Obstacles.empty(), []
+    plane = plane[oi]
+    ids = [ids[i] for i in oi.tolist()]
     if not (np.isfinite(center).all() and np.isfinite(radius).all()):
         raise InvalidInputError("obstacle prediction overflowed")
     return Obstacles.from_validated(center, velocity, radius, plane), ids

@@ -1,0 +1,61 @@
+"""Elongated obstacles (a wall segment, a bench, a flat board) as a row of circles.
+
+One circle of the major semi-axis would close a doorway beside a wall or a path along it.
+An ellipse with semi-axes ``a >= b`` lies inside its bounding box ``[-a, a] x [-b, b]`` (in
+its own frame, rotated by ``orientation`` from odom x within its plane); cut into ``k``
+cells along the major axis, each cell lies inside its circumscribed circle, of radius
+``sqrt((a / k)^2 + b^2)`` about the cell's centre. With ``k = ceil(a / b)`` (at most
+``MAX_CIRCLES``) every circle is at most ``sqrt(2) b`` (for ``k = a / b``) instead of ``a``.
+Obstacles with ``a <= ELONGATION b`` stay one circle of radius ``a`` (the cover would not be
+smaller). Units: m, rad; frames: odom, the obstacle's plane (x-y for VERTICAL, x-z for bars).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["ELONGATION", "MAX_CIRCLES", "ellipse_cover"]
+
+ELONGATION = 1.5
+"""Aspect ratio (major / minor semi-axis) above which an ellipse becomes a row of circles."""
+MAX_CIRCLES = 8
+"""Most circles one obstacle becomes (a longer one gets larger circles, still covering)."""
+
+
+def ellipse_cover(semi_axes, orientation) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Circles covering each ellipse: ``(index, offset, radius)``.
+
+    Args:
+        semi_axes: ``(n, 2)`` semi-axes ``(a, b)`` [m] (``a`` along ``orientation``).
+        orientation: ``(n,)`` angle [rad] of semi-axis ``a`` from odom x, in the plane.
+
+    Returns:
+        ``index`` ``(m,)`` the obstacle of each circle (non-decreasing), ``offset`` ``(m, 2)``
+        its centre relative to the ellipse's centre (in-plane, odom axes) [m] and ``radius``
+        ``(m,)`` [m]. An obstacle that is not elongated gives one circle, offset 0, radius
+        its major semi-axis.
+
+    """
+    ax = np.asarray(semi_axes, dtype=float).reshape(-1, 2)
+    ang = np.asarray(orientation, dtype=float).reshape(-1)
+    index, offset, radius = [], [], []
+    for i, ((a, b), th) in enumerate(zip(ax.tolist(), ang.tolist(), strict=True)):
+        major, minor = max(a, b), min(a, b)
+        if major <= ELONGATION * minor:
+            index.append(i)
+            offset.append((0.0, 0.0))
+            radius.append(major)
+            continue
+        axis = th if a >= b else th + 0.5 * math.pi  # direction of the major axis
+        k = min(math.ceil(major / minor), MAX_CIRCLES)
+        half = major / k
+        r = math.hypot(half, minor)
+        c, s = math.cos(axis), math.sin(axis)
+        for j in range(k):
+            d = -major + (2 * j + 1) * half
+            index.append(i)
+            offset.append((d * c, d * s))
+            radius.append(r)
+    return np.array(index, dtype=np.intp), np.array(offset, dtype=float), np.array(radius)

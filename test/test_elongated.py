@@ -1,0 +1,51 @@
+"""Elongated obstacles become a row of circles that covers the ellipse and opens doorways."""
+
+import math
+
+import numpy as np
+import pytest
+
+from safe_legged_c3bf.safety.elongated import ELONGATION, MAX_CIRCLES, ellipse_cover
+from safe_legged_c3bf.safety.obstacle_input import ObstacleInput, to_c3bf_obstacles
+
+
+def _ellipse_points(a, b, th, n=400):
+    t = np.linspace(0, 2 * np.pi, n)
+    pts = np.stack([a * np.cos(t), b * np.sin(t)], -1)
+    c, s = math.cos(th), math.sin(th)
+    return pts @ np.array([[c, s], [-s, c]])
+
+
+@pytest.mark.parametrize("a, b, th", [(1.5, 0.1, 0.0), (0.1, 1.5, 0.3), (0.6, 0.2, 1.0),
+                                      (3.0, 0.05, -0.7), (0.3, 0.25, 0.5)])
+def test_the_circles_cover_the_ellipse(a, b, th):
+    idx, off, r = ellipse_cover([[a, b]], [th])
+    assert (idx == 0).all() and len(idx) <= MAX_CIRCLES
+    pts = _ellipse_points(a, b, th)
+    d = np.linalg.norm(pts[:, None, :] - off[None], axis=-1)
+    assert (d <= r[None] + 1e-9).any(axis=1).all()
+    if max(a, b) > ELONGATION * min(a, b):
+        assert r.max() < max(a, b)  # smaller than the one circle of the major semi-axis
+    else:
+        assert len(idx) == 1 and r[0] == max(a, b)
+
+
+def test_a_doorway_between_two_walls_stays_open():
+    """Two 3 m walls end to end leave a 0.6 m doorway; one circle each would close it."""
+    walls = [
+        ObstacleInput("left", 0, np.array([3.0, 2.0, 0.5]), np.zeros(3), np.array([0.1, 1.5]), 1.0),
+        ObstacleInput("right", 0, np.array([3.0, -1.6, 0.5]), np.zeros(3), np.array([0.1, 1.5]),
+                      1.0),
+    ]
+    circles, ids = to_c3bf_obstacles(walls, 0.0, 0.0, 0.0, 0.0, 0.05, 0.1)
+    assert set(ids) == {"left", "right"} and len(ids) > 2
+    door = np.array([3.0, 0.2])  # the doorway's middle
+    gap = np.linalg.norm(circles.center - door, axis=1) - circles.radius
+    assert gap.min() > 0.15  # room for the A1's body half width (0.15 m)
+
+
+def test_orientation_turns_the_row():
+    wall = ObstacleInput("w", 0, np.array([0.0, 0.0, 0.5]), np.zeros(3), np.array([1.0, 0.1]), 1.0,
+                         orientation=math.pi / 2)
+    circles, _ = to_c3bf_obstacles([wall], 0.0, 0.0, 0.0, 0.0, 0.0, 0.1)
+    assert np.ptp(circles.center[:, 0]) < 1e-9 and np.ptp(circles.center[:, 1]) > 1.5
