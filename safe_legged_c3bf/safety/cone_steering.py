@@ -28,10 +28,14 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = [
-    "EDGE_STEPS", "START_SPEED", "SWITCH_MARGIN", "ConeSteering", "Steer", "blocked_headings",
+    "EDGE_STEPS", "MAX_TURN", "START_SPEED", "SWITCH_MARGIN", "ConeSteering", "Steer",
+    "blocked_headings",
     "cover_half_width",
 ]
 
+MAX_TURN = math.radians(100.0)
+"""Largest heading change [rad] the steering asks for: a way on only behind the robot is
+not taken (it would walk away from the goal); the reference is kept and the QP brakes."""
 EDGE_STEPS = 2
 """Heading steps (of ``heading_step``) the steering keeps off a cone's edge."""
 START_SPEED = 0.1
@@ -103,7 +107,7 @@ class ConeSteering:
         self.horizon, self.robot_radius = horizon, robot_radius
         self.lookahead, self.heading_gain = lookahead, heading_gain
         self.side_memory = side_memory
-        n = int(math.ceil(math.pi / heading_step))
+        n = int(math.ceil(MAX_TURN / heading_step))
         offsets = heading_step * np.arange(1, n + 1)
         self._left, self._right = offsets, -offsets
         self._side, self._side_time = 0, -math.inf
@@ -154,7 +158,7 @@ class ConeSteering:
             k -= EDGE_STEPS  # keep off the cone's edge, where every row's h is 0
             edges.append(float(offsets[k - 1]) if k > 0 else 0.0)
         hi, lo = edges[0], edges[1]  # free offsets from the yaw: [lo, hi], lo <= 0 <= hi
-        if hi >= math.pi - 1e-9 and lo <= -math.pi + 1e-9:
+        if hi >= self._left[-1] - 1e-9 and lo <= self._right[-1] + 1e-9:
             return Steer(vx_ref, wz_ref, 0, True)  # nothing blocked anywhere
         error = math.remainder(psi_ref - yaw, math.tau)
         clamped = min(max(error, lo), hi)
