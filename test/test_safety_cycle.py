@@ -61,7 +61,8 @@ def known_body_failure(request, body_model: str, reason: str) -> None:
 @BODY_MODELS
 def test_vertical_obstacle_avoided_with_filter_and_hit_without(obstacle, body_model, request):
     if obstacle.id == "static":
-        known_body_failure(request, body_model, "#16: RELAXED spells at rest, h dips to -0.045")
+        known_body_failure(request, body_model, "#16: RELAXED spells near rest, h dips "
+                           "below h0 exp(-gamma t): the rows' low-speed branch switches")
     if obstacle.id == "head_on":
         known_body_failure(request, body_model, "#16: the QP backs up on the cone's other side "
                            "than the steering chose; the walker reaches the inflated circle")
@@ -102,16 +103,15 @@ def test_ten_obstacles_never_entered(body_model):
 
 
 @BODY_MODELS
-def test_bar_ahead_ducks_and_rises_again(body_model, request):
-    known_body_failure(request, body_model, "#16: the whole body brakes for the bar instead "
-                       "of ducking under it")
+def test_bar_ahead_ducks_and_rises_again(body_model):
     bar = ScriptedObstacle("bar", np.array([2.5, 0.0, 0.42]), semi_axes=(0.05, 0.05), plane=1,
                            extent=3.0)
     params = FilterParams(body_model=body_model)
     robot = SimpleRobot()
     log = run(SafetyFilterCycle(params), robot, [bar], VelocityCommand(0.4), 16.0)
-    vz = np.array([out.command.vz for _, out, *_ in log])
-    assert vz.min() < -0.02, "the filter never asked to duck"
+    # Ducked: the body went down at least 2 cm (the whole body starts early and gently,
+    # about -0.01 m/s; the single point later and faster).
+    assert min(z for *_, z in log) < Z_NOMINAL - 0.02, "the filter never made it duck"
     assert min_gap(log) > 0.0
     assert robot.x > 3.5, "the robot did not pass under the bar"
     assert abs(robot.z - Z_NOMINAL) < 0.01, "the robot did not regain its height"
