@@ -214,8 +214,7 @@ def to_c3bf_obstacles(
     diameters [m] vertical and horizontal circles grow by (0 for the whole-body filter, which
     grows them by each body point's radius).
 
-    Elongated obstacles (``elongated.ELONGATION``) become a row of circles along their major
-    axis, each with the obstacle's id (so an id may repeat in the result).
+    Elongated obstacles become a row of circles (``elongated``), each with the obstacle's id.
 
     Symmetry breaking: dead ahead of a unicycle the barrier's sensitivity to steering is
     exactly zero, so a head-on obstacle can only be braked for (and a faster mover cannot be
@@ -256,8 +255,7 @@ def to_c3bf_obstacles(
     if oi.size == 0:
         return Obstacles.empty(), []
     v = vertical[oi]
-    # Vertical: (x, y) moved tie_break to the robot's right; bars: (x, z), kept only
-    # while the robot's y is within their extent (see above).
+    # Vertical: (x, y) moved tie_break to the robot's right; bars: (x, z) (see above).
     center = np.empty((oi.size, 2))
     center[:, 0] = c[oi, 0] + off[:, 0] + np.where(v, tie_break * math.sin(robot_yaw), 0.0)
     center[:, 1] = np.where(v, c[oi, 1] + tie_break * -math.cos(robot_yaw), c[oi, 2]) + off[:, 1]
