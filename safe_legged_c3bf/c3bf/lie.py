@@ -103,14 +103,31 @@ def _barrier_terms(kin, center, velocity, radius, plane, v_eps) -> BarrierTerms:
         V = np.take_along_axis(kin.velocity[..., None, :], axes, -1)
         A = np.take_along_axis(kin.accel_drift[..., None, :], axes, -1)
         B = np.take_along_axis(kin.accel_input[..., None, :, :], axes[..., None], -2)
+    return _terms_in_plane(P, V, A, B, center, velocity, radius, v_eps)
+
+
+def _terms_in_plane(P, V, A, B, center, velocity, radius, v_eps, direction=None) -> BarrierTerms:
+    """:class:`BarrierTerms` from in-plane body-point kinematics (module docstring).
+
+    ``direction``: the low-speed directions of :func:`row_barrier_terms` (None: the smooth
+    regularisation everywhere).
+    """
     r = np.asarray(radius, dtype=float)
     p = np.asarray(center, dtype=float) - P
     v = np.asarray(velocity, dtype=float) - V
-    h, dh_dp, dh_dv, _ = _gradient(p, v, r, v_eps)
+    h, dh_dp, dh_dv, s = _gradient(p, v, r, v_eps)
+    if direction is not None:
+        use = (((v * v).sum(-1) < v_eps * v_eps) & (s > 0.0)
+               & ((direction * direction).sum(-1) > 0.0))
+        if use.any():
+            lin = (direction * v).sum(-1)
+            su = s[use]
+            h = np.where(use, (p * v).sum(-1) + s * lin, h)
+            dh_dp[use] = v[use] + (lin[use] / su)[:, None] * p[use]
+            dh_dv[use] = p[use] + su[:, None] * direction[use]
     lf = (dh_dp * v).sum(-1) - (dh_dv * A).sum(-1)
     lg = -(dh_dv[..., :, None] * B).sum(-2)
-    clearance = (p * p).sum(-1) - r * r
-    return BarrierTerms(h, lf, lg, p, v, clearance)
+    return BarrierTerms(h, lf, lg, p, v, (p * p).sum(-1) - r * r)
 
 
 def plane_take(arr, axes: np.ndarray, rowwise: bool) -> np.ndarray:
@@ -150,22 +167,7 @@ def row_barrier_terms(kin: PointKinematics, center, velocity, radius, plane, v_e
     V = np.take_along_axis(kin.velocity, axes, -1)
     A = np.take_along_axis(kin.accel_drift, axes, -1)
     B = np.take_along_axis(kin.accel_input, axes[:, :, None], -2)  # (n, 2, m)
-    r = np.asarray(radius, dtype=float)
-    p = np.asarray(center, dtype=float) - P
-    v = np.asarray(velocity, dtype=float) - V
-    h, dh_dp, dh_dv, s = _gradient(p, v, r, v_eps)
-    if direction is not None:
-        use = (((v * v).sum(-1) < v_eps * v_eps) & (s > 0.0)
-               & ((direction * direction).sum(-1) > 0.0))
-        if use.any():
-            lin = (direction * v).sum(-1)
-            su = s[use]
-            h = np.where(use, (p * v).sum(-1) + s * lin, h)
-            dh_dp[use] = v[use] + (lin[use] / su)[:, None] * p[use]
-            dh_dv[use] = p[use] + su[:, None] * direction[use]
-    lf = (dh_dp * v).sum(-1) - (dh_dv * A).sum(-1)
-    lg = -(dh_dv[..., :, None] * B).sum(-2)
-    return BarrierTerms(h, lf, lg, p, v, (p * p).sum(-1) - r * r)
+    return _terms_in_plane(P, V, A, B, center, velocity, radius, v_eps, direction)
 
 
 def reference_directions(kin: PointKinematics, center, velocity, plane, u_ref,
