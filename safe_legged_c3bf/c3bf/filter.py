@@ -175,7 +175,6 @@ class SafetyFilter:
         if body is not None and not isinstance(body, RobotBody):
             raise InvalidInputError("body must be a RobotBody or None")
         self.body = body
-        self._row_obstacle = None  # whole body, during a call: the obstacle of each row
 
     # ------------------------------------------------------------------ public API
     def filter(
@@ -260,19 +259,19 @@ class SafetyFilter:
             kin = self.model.point_kinematics_tuple(x.tolist(), yaw)
             return self._filter(x, u0, ul, kin, obs, yaw, t0)
         rows = body_rows(self.model, x, yaw, self.body, obs)
-        self._row_obstacle = rows.obstacle
-        try:
-            with np.errstate(all="ignore"):  # overflow etc. is detected and handled explicitly
-                res = self._filter(x, u0, ul, rows.kin, rows.obstacles, yaw, t0)
-        finally:
-            self._row_obstacle = None
+        with np.errstate(all="ignore"):  # overflow etc. is detected and handled explicitly
+            res = self._filter(x, u0, ul, rows.kin, rows.obstacles, yaw, t0, rows.obstacle)
         return per_obstacle(res, rows, len(obs))
 
-    def _filter(self, x, u0, ul, kin, obs: Obstacles, yaw, t0) -> FilterResult:
-        """Barrier terms of every obstacle, then the QP (or the inside-a-circle handling)."""
+    def _filter(self, x, u0, ul, kin, obs: Obstacles, yaw, t0, row_obstacle=None):
+        """Barrier terms of every obstacle, then the QP (or the inside-a-circle handling).
+
+        ``row_obstacle``: whole body, the obstacle of each row (``body_rows``); None for the
+        single body point.
+        """
         radius = obs.radius + self.margin
         e = None
-        if self._row_obstacle is not None:  # whole body: the reference's directions at rest
+        if row_obstacle is not None:  # whole body: the reference's directions at rest
             e = reference_directions(kin, obs.center, obs.velocity, obs.plane, u0,
                                      DIRECTION_HORIZON)
         terms = obstacle_terms(kin, obs, radius, self.v_eps, self.model.n_u, e)
@@ -287,7 +286,8 @@ class SafetyFilter:
         if not (np.isfinite(c0).all() and np.isfinite(G).all()):
             return self._failsafe(x, yaw, len(obs), t0, "non-finite barrier terms")
         if inside.any():
-            return self._inside(x, u0, ul, yaw, kin, obs, radius, terms, inside, t0)
+            return self._inside(x, u0, ul, yaw, kin, obs, radius, terms, inside, t0,
+                                row_obstacle)
         return self._solve(x, u0, ul, yaw, terms, G, c0, t0)
 
     def _solve(self, x, u0, ul, yaw, terms: Terms, G, c0, t0) -> FilterResult:
@@ -361,7 +361,8 @@ class SafetyFilter:
             )
         return make_result(u, FilterStatus.RELAXED, terms, G, c0, cur, "osqp", t0, msg)
 
-    def _inside(self, x, u0, ul, yaw, kin, obs: Obstacles, radius, terms: Terms, inside, t0):
+    def _inside(self, x, u0, ul, yaw, kin, obs: Obstacles, radius, terms: Terms, inside, t0,
+                row_obstacle=None):
         """Body point inside >= 1 inflated circle: EMERGENCY (see ``inside``).
 
         Leaving every such circle: the QP with their radial no-deeper rows in place of their
@@ -371,8 +372,8 @@ class SafetyFilter:
         idx, rad, terms, G, c0 = inside_rows(
             kin, obs, radius, terms, inside, self.gamma, self.exit_speed
         )
-        names = idx.tolist() if self._row_obstacle is None else sorted(
-            set(self._row_obstacle[idx].tolist()))  # obstacles, not (point, obstacle) rows
+        names = idx.tolist() if row_obstacle is None else sorted(
+            set(row_obstacle[idx].tolist()))  # obstacles, not (point, obstacle) rows
         if (rad.speed > 0.0).all():
             res = self._solve(x, u0, ul, yaw, terms, G, c0, t0)
             if res.status is not FilterStatus.FAILSAFE:
