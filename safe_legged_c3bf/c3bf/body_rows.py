@@ -75,8 +75,8 @@ def per_obstacle(res: FilterResult, rows: BodyRows, n: int) -> FilterResult:
         res.active, res.point = np.zeros(n, dtype=bool), np.full(n, -1)
         return res
     starts = np.flatnonzero(np.r_[True, rows.obstacle[1:] != rows.obstacle[:-1]])
-    nearest = np.array([s + int(np.argmin(c)) for s, c in zip(
-        starts.tolist(), np.split(res.clearance, starts[1:]), strict=True)])
+    # Rows sorted by obstacle, then clearance (stable): each group's first is its nearest.
+    nearest = np.lexsort((res.clearance, rows.obstacle))[starts]
     res.point = rows.point[nearest]
     res.h = np.minimum.reduceat(res.h, starts)
     res.constraint = np.minimum.reduceat(res.constraint, starts)
