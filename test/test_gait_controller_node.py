@@ -122,6 +122,34 @@ def test_a_republished_state_gets_its_command_again(sensors):
     assert len(sensors.commands) == 3
 
 
+def test_first_command_waits_for_the_expected_readers(ros_executor):
+    # With --record the recorder also reads /joint_commands; physics starts with the first
+    # command, so it is held (the simulator keeps republishing its t = 0 state) until the
+    # recorder has matched, or the recording misses the start (or, on a slow machine, all).
+    sensors = Sensors(ros_executor, robot="quadruped", start_subscribers=2, start_wait=30.0)
+    sensors.publish_state(0.0)
+    assert not sensors.wait_for_command(0.0, timeout=1.0)
+    late = rclpy.create_node("gait_test_recorder", context=ros_executor.context_for_nodes)
+    ros_executor.add_node(late)
+    recorded: list[MotorCommand] = []
+    late.create_subscription(MotorCommand, topics.JOINT_COMMANDS.name, recorded.append, 50)
+    assert spin_until(
+        ros_executor, lambda: sensors.node_under_test._pub.get_subscription_count() >= 2, 10.0
+    )
+    sensors.publish_state(0.0)  # the simulator's next republication
+    assert sensors.wait_for_command(0.0)
+    assert spin_until(ros_executor, lambda: len(recorded) >= 1, 5.0)
+
+
+def test_first_command_hold_is_bounded(ros_executor):
+    sensors = Sensors(ros_executor, robot="quadruped", start_subscribers=3, start_wait=0.5)
+    sensors.publish_state(0.0)
+    assert not sensors.wait_for_command(0.0, timeout=0.2)
+    spin_until(ros_executor, lambda: False, timeout=0.5)
+    sensors.publish_state(0.0)
+    assert sensors.wait_for_command(0.0)  # started anyway, with a warning
+
+
 def test_mismatched_or_nan_states_are_not_acted_on(sensors):
     sensors.publish_state(3.0, joints_t=2.9)  # halves of different states
     assert not sensors.wait_for_command(3.0, timeout=0.5)

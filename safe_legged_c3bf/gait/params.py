@@ -14,6 +14,7 @@ from safe_legged_c3bf.interfaces.typed_params import (
     NON_NEGATIVE,
     POSITIVE,
     TEXT,
+    at_least,
     TypedParams,
     param,
 )
@@ -45,4 +46,13 @@ class GaitControllerParams(TypedParams):
     max_future_stamp: float = param(
         0.1, "s", "how far a stamp of /imu, /joint_states or /odom may be ahead of the node's "
         "clock; later stamps are rejected (a publisher not on sim time)", NON_NEGATIVE,
+    )
+    start_subscribers: int = param(
+        1, "-", "hold the first command until /joint_commands has this many subscribers (the "
+        "simulator; 2 with the bringup's --record, so the recording has every command)",
+        at_least(1), fixed=True,
+    )
+    start_wait: float = param(
+        10.0, "s", "longest wall-clock hold for start_subscribers; then start anyway, warned",
+        POSITIVE, fixed=True,
     )

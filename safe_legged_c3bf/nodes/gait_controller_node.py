@@ -71,6 +71,9 @@ class GaitControllerNode(Node):
         self._ticks = 0
         self._tick_wall = 0.0
         self._command_stale = True
+        self._start_subscribers = int(p.start_subscribers)
+        self._start_wait = float(p.start_wait)
+        self._start_deadline: float | None = None  # wall s, set by the first state
 
         self._pub = ros_common.publisher(self, topics.JOINT_COMMANDS)
         self._diag_pub = ros_common.publisher(self, topics.DIAGNOSTICS)
@@ -198,6 +201,8 @@ class GaitControllerNode(Node):
             return
         if t < self._last_processed_stamp:
             return
+        if self._holding_first_command():
+            return
         period = self.controller.control_period
         if self._last_tick is not None and t - self._last_tick < period - 1e-9:
             return
@@ -227,6 +232,29 @@ class GaitControllerNode(Node):
         self._pub.publish(msg)
         self._last_msg = msg
         self._answered = (self._imu, self._joints)
+
+    def _holding_first_command(self) -> bool:
+        """True while the first command waits for ``start_subscribers`` readers (wall-bounded).
+
+        Physics starts with the first command; the simulator republishes its t = 0 state until
+        then, so holding it lets a recorder match /joint_commands before any command goes out.
+        """
+        if self._last_msg is not None or self._start_wait <= 0.0:
+            return False
+        if self._pub.get_subscription_count() >= self._start_subscribers:
+            self._start_wait = 0.0
+            return False
+        now = time.monotonic()
+        if self._start_deadline is None:
+            self._start_deadline = now + self._start_wait
+        if now < self._start_deadline:
+            return True
+        self.get_logger().warn(
+            f"/joint_commands has {self._pub.get_subscription_count()} of "
+            f"{self._start_subscribers} subscribers after {self._start_wait:g} s: starting anyway"
+        )
+        self._start_wait = 0.0
+        return False
 
     def _resend_if_republished(self) -> None:
         """Answer a state the simulator published again with the same command, once.
