@@ -14,8 +14,8 @@ from safe_legged_c3bf.interfaces.typed_params import (
     NON_NEGATIVE,
     POSITIVE,
     TEXT,
-    at_least,
     TypedParams,
+    at_least,
     param,
 )
 

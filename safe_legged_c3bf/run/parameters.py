@@ -85,7 +85,8 @@ def _bringup_layer(
     params["safety_filter"]["enabled"] = not opts.no_filter
     params["gait_controller"]["robot"] = robot_kind
     # the recorder also reads /joint_commands: hold physics until it has matched
-    params["gait_controller"]["start_subscribers"] = 1 if getattr(opts, "record", None) is None else 2
+    recording = getattr(opts, "record", None) is not None
+    params["gait_controller"]["start_subscribers"] = 2 if recording else 1
     return params
 
 
