@@ -62,10 +62,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--duration", type=float, metavar="S",
                    help="override the scenario duration (s, sim time)")
     p.add_argument("--seed", type=int, metavar="N", help="override the scenario seed")
-    p.add_argument("--stop-on-outcome", action="store_true",
-                   help="end the run once its outcome is settled: "
-                   f"{OUTCOME_HOLD:g} s (sim) after the goal is reached, the first collision "
-                   "or a fall (evaluations use it; default: run the whole duration)")
+    p.add_argument("--full-duration", dest="stop_on_outcome", action="store_false",
+                   help="run to the scenario's duration (default: end the run "
+                   f"{OUTCOME_HOLD:g} s (sim) after its outcome is settled: the goal reached, "
+                   "the first collision or a fall)")
+    p.add_argument("--stop-on-outcome", dest="stop_on_outcome", action="store_true",
+                   help="end the run once its outcome is settled (the default; kept for "
+                   "scripts that pass it)")
+    p.set_defaults(stop_on_outcome=True)
     p.add_argument("--domain-id", type=int, metavar="N",
                    help="use this ROS_DOMAIN_ID as is (default: lease a private one, "
                    "localhost only)")

@@ -219,7 +219,7 @@ def test_short_run_writes_summary_report_plots_and_recording(tmp_path, bringups)
     code = b.wait(timeout=120)
     assert code == 0, b.out + b.err
     assert "Run COMPLETED" in b.out
-    for label in ("goal reached", "collision", "min clearance", "real-time factor",
+    for label in ("goal reached", "collision", "min clearance", "real-time factor", "cpu",
                   "filter intervened", "filter solve time median"):
         assert label in b.out
 
@@ -238,6 +238,12 @@ def test_short_run_writes_summary_report_plots_and_recording(tmp_path, bringups)
     solve = s["filter"]["solve_time_ms"]
     assert 0 <= solve["median"] <= solve["p99"]
     assert s["goal"]["position"] == [3.0, 0.0]
+    # per-node CPU (core-s per sim s) of every node process and the bringup's own
+    per_node = s["cpu"]["per_sim_second"]
+    assert set(per_node) >= {"simulator", "obstacle_tracker", "reference_planner",
+                             "safety_filter", "gait_controller", "recorder", "bringup"}
+    assert all(v >= 0.0 for v in per_node.values()) and per_node["simulator"] > 0.0
+    assert s["cpu"]["total_per_sim_second"] == pytest.approx(sum(per_node.values()), abs=0.01)
     # the printed summary and the report agree
     assert ("collision         no" in b.out) == (not s["collision"])
     for name in PLOTS + ("timeseries.npz", "scenario.yaml"):
@@ -352,6 +358,7 @@ def test_in_process_run_with_video(tmp_path, bringups):
     assert report["summary"]["mode"] == "in-process"
     assert report["summary"]["completed"] is True
     assert report["summary"]["filter"]["cycles"] > 0
+    assert list(report["summary"]["cpu"]["per_sim_second"]) == ["in_process"]
     assert (run_dir / "logs" / "in_process.log").is_file()
     assert report["video"] == str(video)
     frames = [f for f in iio.get_reader(video)]

@@ -127,3 +127,53 @@ def test_outcome_settles_after_the_first_decisive_event():
     # A collision names the run even when the goal came first.
     assert decided(12.0, goal=10.0, collision=10.5).startswith("collision at t = 10.50 s")
     assert decided(12.0, fall=9.0).startswith("fall at t = 9.00 s")
+
+
+def test_runs_end_on_their_outcome_unless_full_duration():
+    from safe_legged_c3bf.bringup import build_parser
+
+    assert build_parser().parse_args([]).stop_on_outcome is True
+    assert build_parser().parse_args(["--full-duration"]).stop_on_outcome is False
+    assert build_parser().parse_args(["--stop-on-outcome"]).stop_on_outcome is True
+
+
+def test_cpu_per_node_is_reported_per_sim_second():
+    ctx = RunContext(scenario="s", duration=10.0, wall_time=20.0,
+                     cpu_seconds={"simulator": 6.0, "gait_controller": 4.0, "bringup": 1.0})
+    s = summarize(_data(), ctx, 10.0)
+    cpu = s["cpu"]
+    assert cpu["per_sim_second"] == {"bringup": 0.1, "gait_controller": 0.4, "simulator": 0.6}
+    assert cpu["total_per_sim_second"] == pytest.approx(1.1)
+    assert cpu["cores"] == pytest.approx(11.0 / 20.0)
+    text = format_summary(s)
+    assert "cpu               1.10 core-s per sim s (simulator 0.60, gait_controller 0.40" in text
+    # unknown CPU (no node processes measured) reads n/a, not zero
+    empty = summarize(_data(), RunContext(scenario="s", duration=10.0, wall_time=1.0), 10.0)
+    assert empty["cpu"]["total_per_sim_second"] is None and empty["cpu"]["cores"] is None
+    assert "cpu               n/a" in format_summary(empty)
+
+
+def test_cpu_meter_keeps_the_last_value_of_an_exited_process():
+    import subprocess
+    import sys
+
+    from safe_legged_c3bf.run.cpu_usage import CpuMeter, own_cpu_seconds, process_cpu_seconds
+
+    busy = subprocess.Popen([sys.executable, "-c", "import time\nt=time.process_time()\n"
+                             "while time.process_time() - t < 0.3: pass\ninput()"],
+                            stdin=subprocess.PIPE)
+    meter = CpuMeter()
+    try:
+        for _ in range(200):
+            meter.sample({"busy": busy.pid})
+            if meter.seconds.get("busy", 0.0) >= 0.3:
+                break
+            subprocess.run(["sleep", "0.05"], check=True)
+    finally:
+        busy.communicate(b"\n", timeout=10)
+    assert meter.seconds["busy"] >= 0.3
+    last = meter.seconds["busy"]
+    meter.sample({"busy": busy.pid})  # reaped: /proc has nothing, the value stays
+    assert meter.seconds["busy"] == last
+    assert process_cpu_seconds(busy.pid) is None
+    assert own_cpu_seconds() > 0.0

@@ -118,13 +118,12 @@ def bringup_command(
 ) -> list[str]:
     """The command line of the bringup subprocess of ``spec``.
 
-    Runs end once their outcome is settled (``--stop-on-outcome``: goal reached, collision
-    or fall) unless ``full_duration``.
+    Runs end once their outcome is settled (goal reached, collision or fall; the bringup's
+    default, passed as ``--stop-on-outcome``) unless ``full_duration`` (``--full-duration``).
     """
     cmd = [python or sys.executable, "-m", "safe_legged_c3bf.bringup",
            "--scenario", str(spec.scenario), "--out", str(run_dir), "--progress-period", "5"]
-    if not full_duration:
-        cmd.append("--stop-on-outcome")
+    cmd.append("--full-duration" if full_duration else "--stop-on-outcome")
     if not spec.filter_enabled:
         cmd.append("--no-filter")
     if in_process:

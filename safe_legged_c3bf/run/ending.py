@@ -22,6 +22,7 @@ def finish(session: Session) -> int:
     ctx = plan.context
     ctx.wall_time = time.monotonic() - session.wall_start
     ctx.outcome, ctx.reason = outcome.kind, outcome.reason
+    ctx.cpu_seconds = session.launcher.cpu_seconds()
     _say_failure(session)
     extra = _run_facts(session)
     simulator = None

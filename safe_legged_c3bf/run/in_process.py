@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from safe_legged_c3bf.run.console import say
+from safe_legged_c3bf.run.cpu_usage import own_cpu_seconds
 from safe_legged_c3bf.run.launcher import Launcher
 from safe_legged_c3bf.run.outcome import Outcome, StartupError
 from safe_legged_c3bf.run.parameters import merged_parameters
@@ -65,6 +66,7 @@ class InProcessLauncher(Launcher):
         self.multi_threaded = multi_threaded
         self.nodes: list[tuple[str, Any]] = []
         self._executor = None
+        self._own_cpu_start = own_cpu_seconds()
 
     def make_executor(self) -> Any:
         """A multi-threaded executor (4 threads) with ``--executor multi``, else single."""
@@ -108,6 +110,10 @@ class InProcessLauncher(Launcher):
                for name, node in self.nodes):
             return Outcome("completed", "the simulator finished the scenario")
         return None
+
+    def cpu_seconds(self) -> dict[str, float]:
+        """CPU core-seconds of the bringup process: every node, the recorder and the monitor."""
+        return {"in_process": own_cpu_seconds() - self._own_cpu_start}
 
     def stop(self) -> list[str]:
         """Destroy the nodes (nothing is ever forced)."""

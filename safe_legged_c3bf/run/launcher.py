@@ -46,6 +46,10 @@ class Launcher(ABC):
     def stop(self) -> list[str]:
         """Stop every node; return a line for each that had to be forced."""
 
+    def cpu_seconds(self) -> dict[str, float]:
+        """CPU core-seconds used so far, per node process ({}: unknown)."""
+        return {}
+
     def node_table(self) -> dict[str, dict[str, Any]]:
         """Per started node: pid, module, exit and log, for report.json ({}: nothing to say)."""
         return {}

@@ -179,7 +179,7 @@ class MonitorNode(Node):
         for label, when in (("collision", self.collision_time), ("fall", self.fall_time),
                             ("goal reached", self.goal_time)):
             if when is not None and t >= when + hold:
-                return f"{label} at t = {when:.2f} s: run ended early (--stop-on-outcome)"
+                return f"{label} at t = {when:.2f} s: run ended early (--full-duration runs on)"
         return None
 
     # -- callbacks ----------------------------------------------------------------------------

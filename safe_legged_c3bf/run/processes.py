@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from safe_legged_c3bf.run.console import say
+from safe_legged_c3bf.run.cpu_usage import CpuMeter, own_cpu_seconds
 from safe_legged_c3bf.run.graph import LAST_NODE
 from safe_legged_c3bf.run.launcher import Launcher
 from safe_legged_c3bf.run.outcome import EXIT_FAILED, Outcome
@@ -43,6 +44,8 @@ class ProcessLauncher(Launcher):
         self.end_grace = 30.0 if video else 5.0
         self.supervisor: Supervisor | None = None
         self.processes: dict[str, ManagedProcess] = {}
+        self.cpu = CpuMeter()
+        self._own_cpu_start = own_cpu_seconds()
 
     def start(self, session: Session) -> None:
         """Start the recorder and the graph nodes; the gait controller once the others are up."""
@@ -89,6 +92,7 @@ class ProcessLauncher(Launcher):
         """The simulator's exit 0 completes the run; any other exit or a frozen node fails it."""
         if self.supervisor is None:
             return None
+        self._sample_cpu()
         for proc in self.supervisor.newly_exited():
             code = proc.poll()
             if proc.name == "simulator" and code == 0:
@@ -110,6 +114,7 @@ class ProcessLauncher(Launcher):
         """SIGINT every node's group, escalating; the recorder last (it keeps the last data)."""
         if self.supervisor is None:
             return []
+        self._sample_cpu()
         deadline = time.monotonic() + STOP_WINDOW
         graph = [p for name, p in self.processes.items() if name != "recorder"]
         recorder = [p for name, p in self.processes.items() if name == "recorder"]
@@ -120,6 +125,13 @@ class ProcessLauncher(Launcher):
             escalated += self.supervisor.stop(recorder, deadline=deadline)
         return [f"{p.name} did not stop on SIGINT: {describe_returncode(p.poll())}"
                 for p in escalated]
+
+    def _sample_cpu(self) -> None:
+        self.cpu.sample({name: p.pid for name, p in self.processes.items()})
+
+    def cpu_seconds(self) -> dict[str, float]:
+        """Each node process's CPU core-seconds (last read), and this process's (the monitor)."""
+        return {**self.cpu.seconds, "bringup": own_cpu_seconds() - self._own_cpu_start}
 
     def node_table(self) -> dict[str, dict[str, Any]]:
         """Per started process: pid, module, how it exited and its log file."""

@@ -12,12 +12,13 @@ from __future__ import annotations
 import argparse
 import json
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from safe_legged_c3bf.run.cpu_usage import cpu_summary
 from safe_legged_c3bf.run.monitor import INTERVENING, STATUS_NAMES, ObstacleTrack, RunData
 from safe_legged_c3bf.run.plots import write_plots
 
@@ -40,6 +41,7 @@ class RunContext:
         wall_time: wall seconds from start of the nodes to the end of the run.
         outcome: 'completed', 'node_died', 'startup_failed', 'interrupted'.
         reason: one line explaining the outcome.
+        cpu_seconds: CPU core-seconds per node process (or 'in_process': all of them).
 
     """
 
@@ -56,6 +58,7 @@ class RunContext:
     wall_time: float = 0.0
     outcome: str = "completed"
     reason: str = ""
+    cpu_seconds: dict[str, float] = field(default_factory=dict)
 
 
 def _finite(x: float | None) -> float | None:
@@ -108,6 +111,7 @@ def summarize(
         None if data.wall_last is None or data.wall_last <= (data.wall_start or 0)
         else (data.sim_last - data.sim_start) / (data.wall_last - data.wall_start)
     )
+    summary["cpu"] = cpu_summary(ctx.cpu_seconds, summary["sim_time"], ctx.wall_time)
     summary["goal"] = _goal_summary(odom, ctx)
     summary["path_length"] = (
         float(np.sum(np.hypot(np.diff(odom[:, 1]), np.diff(odom[:, 2])))) if len(odom) > 1 else 0.0
@@ -260,6 +264,7 @@ def format_summary(summary: dict[str, Any], run_dir: Path | None = None) -> str:
         f"  time              {_fmt(summary.get('sim_time'), '.1f', ' s')} sim in "
         f"{summary['wall_time']:.1f} s wall (real-time factor "
         f"{_fmt(summary.get('real_time_factor'), '.2f')})",
+        f"  cpu               {_cpu_text(summary.get('cpu') or {})}",
         f"  filter intervened {_fmt(None if share is None else 100 * share, '.1f', ' %')} "
         f"of the time ({f['cycles']} cycles)",
         f"  filter solve time median {_fmt(solve.get('median'), '.3f', ' ms')}, "
@@ -268,6 +273,15 @@ def format_summary(summary: dict[str, Any], run_dir: Path | None = None) -> str:
     if run_dir is not None:
         lines.append(f"  run folder        {run_dir}")
     return "\n".join(lines)
+
+
+def _cpu_text(cpu: dict[str, Any]) -> str:
+    """'1.42 core-s per sim s (simulator 0.60, ...)' or 'n/a'."""
+    total, per = cpu.get("total_per_sim_second"), cpu.get("per_sim_second") or {}
+    if total is None:
+        return "n/a"
+    parts = ", ".join(f"{k} {v:.2f}" for k, v in sorted(per.items(), key=lambda kv: -kv[1]))
+    return f"{total:.2f} core-s per sim s ({parts})"
 
 
 def _yesno(value: bool | None) -> str:
