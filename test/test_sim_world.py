@@ -76,6 +76,9 @@ def test_driver_waits_then_damps_after_timeout():
         assert sim.driver_mode is DriverMode.ACTIVE
         sim.step(60)
         assert sim.driver_mode is DriverMode.DAMPING and sim.driver_timeouts == 1
+        # when: the only command at step 5, the timeout 0.05 s later
+        assert len(sim.driver_timeout_times) == 1
+        assert sim.driver_timeout_times[0] == pytest.approx(5 * sim.physics_dt + 0.05, abs=2e-3)
         bad = stand_command(sim)
         bad.q[3] = math.nan
         assert not sim.set_command(bad)

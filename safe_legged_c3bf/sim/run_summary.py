@@ -64,6 +64,7 @@ def run_summary(
         "commands_received": sim.commands_received,
         "rejected_commands": sim.rejected_commands,
         "driver_timeouts": sim.driver_timeouts,
+        "driver_timeout_times": list(sim.driver_timeout_times),
         "driver_mode": sim.driver_mode.value,
         "detection_frames": sim.perception.frames,
         "detections_dropped": sim.perception.dropped,

@@ -163,6 +163,7 @@ class Simulation:
         self._step = 0
         self._driver_mode = DriverMode.WAITING
         self.driver_timeouts = 0
+        self.driver_timeout_times: list[float] = []  # sim s of the first few (diagnosis)
         self.commands_received = 0
         self.malformed_commands = 0
         self.goal_progress = GoalProgress(sc.goal.position, sc.goal.tolerance)
@@ -266,6 +267,8 @@ class Simulation:
             if mode is not self._driver_mode:
                 if mode is DriverMode.DAMPING and self._driver_mode is DriverMode.ACTIVE:
                     self.driver_timeouts += 1
+                    if len(self.driver_timeout_times) < 20:
+                        self.driver_timeout_times.append(round(t, 3))
                 self._driver_mode = mode
             sync.before_step(k, t)
             pybullet.stepSimulation(physicsClientId=client)
