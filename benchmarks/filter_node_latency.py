@@ -159,7 +159,12 @@ def main() -> int:
         report("end-to-end across processes: /odom -> /cmd_vel_safe", e2e[20:])
     finally:
         proc.terminate()
-        proc.wait(timeout=10)
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            print("filter process ignored SIGTERM for 10 s: killed", file=sys.stderr)
+            proc.kill()
+            proc.wait()
         node.destroy_node()
         rclpy.try_shutdown()
     return 0

@@ -121,15 +121,25 @@ def diagnostic_array(node: Node, statuses: Iterable[DiagnosticStatus]) -> Diagno
     return msg
 
 
+#: Wall s a node process's executor waits at most before it checks for shutdown again.
+SPIN_WAKE_PERIOD = 0.5
+
+
 def run_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
-    """Standard ``main`` body: init, spin one node until Ctrl-C/SIGTERM, clean shutdown."""
+    """Standard ``main`` body: init, spin one node until Ctrl-C/SIGTERM, clean shutdown.
+
+    The executor waits at most SPIN_WAKE_PERIOD at a time: a node process once stayed in
+    ``executor.spin()`` forever after SIGTERM (rclpy's signal guard condition woke it before
+    the context was shut down, and it went back to an endless wait).
+    """
     rclpy.init(args=sys.argv if args is None else args)
     node = None
     try:
         node = factory()
         executor = SingleThreadedExecutor()
         executor.add_node(node)
-        executor.spin()
+        while rclpy.ok():
+            executor.spin_once(timeout_sec=SPIN_WAKE_PERIOD)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
