@@ -259,10 +259,12 @@ def combine(folders: list[Path], out: Path | None, figures: bool,
 
 
 def _print_summary(records: list[dict[str, Any]], paths: dict[str, Path]) -> None:
-    from safe_legged_c3bf.evaluation.metrics import aggregate
+    from safe_legged_c3bf.evaluation.metrics import aggregate, collision_bound
 
-    print("\nevaluate: summary (obstacle runs; rates over valid runs)")
-    for row in aggregate(records, ("robot", "filter")):
+    print("\nevaluate: summary (obstacle runs; rates over valid runs; 95 % intervals in "
+          "results.md)")
+    rows = aggregate(records, ("robot", "filter"))
+    for row in rows:
         def pct(x: float | None) -> str:
             return "  – " if x is None else f"{100 * x:3.0f}%"
 
@@ -274,6 +276,8 @@ def _print_summary(records: list[dict[str, Any]], paths: dict[str, Path]) -> Non
               f"{'–' if clear is None else f'{clear if abs(clear) >= 5e-4 else 0.0:.3f} m'}"
               f"  overhead {'–' if over is None or not math.isfinite(over) else f'{over:+.1f} s'}"
               f"  run failures {row['run_failures']}")
+    for row in rows:
+        print(f"  {row['robot']} filter {row['filter']}: {collision_bound(row)}")
     for key in ("markdown", "csv", "summary"):
         print(f"  {key:<9} {paths[key]}")
 
