@@ -217,7 +217,9 @@ def test_run_folder_travels_as_bytes(tmp_path):
         "logs", "logs/sim.log", "report.json"]
 
 
-def test_orphan_guard_stops_the_group_of_a_dead_owner():
+def test_orphan_guard_stops_the_group_of_a_dead_owner(tmp_path):
+    scratch = tmp_path / "c3bf-run-x"
+    (scratch / "runs").mkdir(parents=True)
     owner = subprocess.Popen(["sleep", "60"])
     group = subprocess.Popen(["sh", "-c", "sleep 60 & sleep 60; wait"], start_new_session=True)
     try:
@@ -225,8 +227,10 @@ def test_orphan_guard_stops_the_group_of_a_dead_owner():
         owner.kill()
         owner.wait()
         t0 = time.monotonic()
-        assert orphan_guard.guard(owner.pid, group.pid, grace=2.0, period=0.05) is True
-        assert time.monotonic() - t0 < 5.0
+        assert orphan_guard.guard(owner.pid, group.pid, grace=2.0, period=0.05,
+                                  remove=[scratch]) is True
+        assert time.monotonic() - t0 < 10.0
+        assert not scratch.exists()
         group.wait(timeout=5)
         deadline = time.monotonic() + 5.0  # the background sleep (SIGINT-immune) goes too
         while orphan_guard.group_alive(group.pid) and time.monotonic() < deadline:
@@ -236,6 +240,36 @@ def test_orphan_guard_stops_the_group_of_a_dead_owner():
         for proc in (owner, group):
             if proc.poll() is None:
                 os.killpg(proc.pid, signal.SIGKILL) if proc is group else proc.kill()
+
+
+def test_detached_orphan_guard_cleans_up_after_a_killed_owner(tmp_path):
+    """The guard as a Ray task starts it: detached, so killing its starter's tree spares it."""
+    scratch = tmp_path / "scratch"
+    scratch.mkdir()
+    owner = subprocess.Popen(["sleep", "60"])
+    group = subprocess.Popen(["sleep", "60"], start_new_session=True)
+    try:
+        starter = orphan_guard.detach([str(owner.pid), str(group.pid), "2", str(scratch)])
+        assert starter.wait(timeout=30) == 0
+        owner.kill()
+        owner.wait()
+        deadline = time.monotonic() + 30.0
+        while (group.poll() is None or scratch.exists()) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert group.poll() is not None and not scratch.exists()
+    finally:
+        for proc in (owner, group):
+            if proc.poll() is None:
+                proc.kill()
+
+
+def test_orphan_guard_removes_the_scratch_of_a_dead_owner_whose_run_ended(tmp_path):
+    owner = subprocess.Popen(["true"])
+    owner.wait()
+    group = subprocess.Popen(["true"], start_new_session=True)
+    group.wait()
+    assert orphan_guard.guard(owner.pid, group.pid, period=0.05, remove=[tmp_path]) is False
+    assert not tmp_path.exists()
 
 
 def test_orphan_guard_leaves_a_living_owner_alone():

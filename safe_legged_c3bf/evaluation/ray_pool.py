@@ -14,8 +14,10 @@ escalation on its process group and its result row. Per task:
   scenario the driver planned (random scenarios exist only in the driver's output folder).
 * **Cancel:** ``ray.cancel`` raises KeyboardInterrupt in the task, and the runner stops the
   bringup's group (SIGINT, SIGKILL after 15 s). If the worker itself dies (its driver was
-  killed, a force-cancel, the node stops), :mod:`.orphan_guard` (a watcher in its own session)
-  stops the group, so no bringup outlives its task.
+  killed, a force-cancel, the node stops), Ray kills the worker's children (the bringup; its
+  nodes follow by their parent-death signal) and :mod:`.orphan_guard` (a detached watcher)
+  stops whatever of the group still runs and removes the task's scratch folders, so nothing
+  outlives the task.
 * **Results:** the run folder (report.json, logs, time series, figures; 0.5-1 MB) comes back
   to the driver as a tar.gz in the task's return value and is unpacked into
   ``<out>/runs/<run_id>``; with ``shared_dir`` (a folder every node mounts at the same path)
@@ -31,7 +33,6 @@ import os
 import shutil
 import socket
 import subprocess
-import sys
 import tarfile
 import tempfile
 import time
@@ -40,6 +41,7 @@ from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
 
+from safe_legged_c3bf.evaluation import orphan_guard
 from safe_legged_c3bf.evaluation.runner import (
     STOP_GRACE,
     Runner,
@@ -122,7 +124,7 @@ def execute_run(spec_fields: dict[str, Any], scenario_text: str | None, duration
     """The body of one Ray task: run one bringup; return its row and its run folder.
 
     Returns {'row', 'archive' (tar.gz bytes of the run folder, None with a shared folder),
-    'run_dir' (on the worker), 'host'}.
+    'run_dir' (on the worker), 'host' ('<hostname>/<Ray node id>')}.
     """
     spec = RunSpec(**spec_fields)
     _mirror_driver_env(options.get("env") or {})
@@ -139,21 +141,32 @@ def execute_run(spec_fields: dict[str, Any], scenario_text: str | None, duration
         runner = Runner(base, jobs=1, in_process=bool(options.get("in_process")),
                         full_duration=bool(options.get("full_duration")),
                         progress=lambda _line: None,
-                        on_start=lambda _spec, proc: guards.append(_start_guard(proc)))
+                        on_start=lambda _spec, proc: guards.append(
+                            _start_guard(proc, [inputs] if shared else [inputs, base])))
         rec = runner.run([local], {spec.run_id: duration})[0]
         run_dir = (base / "runs" / spec.run_id).resolve()
         archive = None if shared else pack(run_dir)
         return {"row": rec, "archive": archive, "run_dir": str(run_dir),
-                "host": socket.gethostname()}
+                "host": f"{socket.gethostname()}/{_node_id()}"}
     finally:
-        for guard in guards:
+        for starter in guards:
             try:
-                guard.wait(timeout=2 * 0.5 + 1.0)  # it exits one poll after the group ends
+                starter.wait(timeout=10.0)  # exits as soon as the guard runs
             except subprocess.TimeoutExpired:
                 pass
-        shutil.rmtree(inputs, ignore_errors=True)
+        shutil.rmtree(inputs, ignore_errors=True)  # the guard ends once these are gone
         if not shared:
             shutil.rmtree(base, ignore_errors=True)
+
+
+def _node_id() -> str:
+    """The first 8 hex digits of this Ray node's id ('' outside Ray)."""
+    try:
+        import ray
+
+        return ray.get_runtime_context().get_node_id()[:8]
+    except Exception:  # noqa: BLE001 - only for the progress line
+        return ""
 
 
 def _mirror_driver_env(env: dict[str, str | None]) -> None:
@@ -169,14 +182,15 @@ def _mirror_driver_env(env: dict[str, str | None]) -> None:
             os.environ[key] = value
 
 
-def _start_guard(proc: subprocess.Popen) -> subprocess.Popen:
-    """Start the orphan guard of the bringup ``proc`` (watching this worker process)."""
-    return subprocess.Popen(
-        [sys.executable, "-m", "safe_legged_c3bf.evaluation.orphan_guard", str(os.getpid()),
-         str(proc.pid), f"{STOP_GRACE:g}"],
-        stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-        start_new_session=True,
-    )
+def _start_guard(proc: subprocess.Popen, scratch: Sequence[Path]) -> subprocess.Popen:
+    """Start the orphan guard of the bringup ``proc`` (watching this worker process).
+
+    If the worker dies, the guard stops the bringup and deletes the folders ``scratch``. It is
+    detached (no child of the worker: Ray kills those with the worker); the returned process
+    is the intermediate that starts it.
+    """
+    return orphan_guard.detach([str(os.getpid()), str(proc.pid), f"{STOP_GRACE:g}",
+                                *(str(p) for p in scratch)])
 
 
 def pack(folder: Path) -> bytes:
@@ -260,12 +274,13 @@ class RayPool:
             raise ValueError("run ids must be unique")
         durations = durations or {}
         check_capacity(self.cpus, self.memory)
-        task = ray.remote(execute_run).options(
-            num_cpus=self.cpus, max_retries=MAX_RETRIES,
-            **({"memory": int(self.memory)} if self.memory else {}))
+        task = ray.remote(execute_run)
+        resources = {"num_cpus": self.cpus, "max_retries": MAX_RETRIES}
+        if self.memory:
+            resources["memory"] = int(self.memory)
         self._t0 = time.monotonic()
         pending = {
-            task.options(name=f"evaluate:{s.run_id}").remote(
+            task.options(name=f"evaluate:{s.run_id}", **resources).remote(
                 asdict(s), scenario_text(s.scenario), float(durations.get(s.run_id, 30.0)),
                 self.options): s
             for s in specs
