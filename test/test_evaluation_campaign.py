@@ -277,3 +277,46 @@ def test_orphan_guard_leaves_a_living_owner_alone():
     assert orphan_guard.guard(os.getpid(), group.pid, period=0.05) is False
     assert group.wait(timeout=5) == 0
     assert orphan_guard.main(["x"]) == 2
+
+
+class FakeRay:
+    """The few calls of the ray module that the pool's checks and collection use."""
+
+    def __init__(self, nodes, result=None, error=None):
+        self._nodes, self._result, self._error = nodes, result, error
+
+    def nodes(self):
+        return self._nodes
+
+    def get(self, ref):
+        if self._error:
+            raise self._error
+        return self._result
+
+
+def test_capacity_check_refuses_tasks_no_node_can_hold(monkeypatch):
+    fake = FakeRay([{"Alive": True, "Resources": {"CPU": 1.0, "memory": 2.0 * 2**30}},
+                    {"Alive": False, "Resources": {"CPU": 8.0, "memory": 64.0 * 2**30}}])
+    monkeypatch.setattr(ray_pool, "import_ray", lambda: fake)
+    ray_pool.check_capacity(1.0, 2**30)
+    with pytest.raises(ray_pool.RayConnectError, match="lower --ray-cpus"):
+        ray_pool.check_capacity(2.0)  # the 8-CPU node is dead
+    with pytest.raises(ray_pool.RayConnectError, match="4.0 GiB"):
+        ray_pool.check_capacity(1.0, 4 * 2**30)
+
+
+def test_a_failed_task_is_a_startup_failure_row_and_results_are_unpacked(tmp_path):
+    spec = specs(1)[0]
+    pool = ray_pool.RayPool(tmp_path, progress=quiet)
+    rec, host = pool._collect(FakeRay([], error=RuntimeError("node died")), None, spec)
+    assert rec["outcome"] == "startup_failed" and "node died" in rec["reason"] and host == "?"
+
+    src = tmp_path / "worker"
+    src.mkdir()
+    (src / "report.json").write_text("{}")
+    row = record_from_report(spec, make_report(), 0, 1.0, run_dir=src)
+    result = {"row": row, "archive": ray_pool.pack(src), "run_dir": str(src), "host": "h/n"}
+    rec, host = pool._collect(FakeRay([], result=result), None, spec)
+    target = tmp_path / "runs" / spec.run_id
+    assert host == "h/n" and rec["run_dir"] == str(target.resolve())
+    assert (target / "report.json").is_file() and rec["outcome"] == row["outcome"]

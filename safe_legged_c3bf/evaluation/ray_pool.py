@@ -228,7 +228,10 @@ def scenario_text(scenario: str) -> str | None:
 
 
 class RayPool:
-    """Runs :class:`RunSpec` s as Ray tasks (connect first): :class:`Runner` under ``--ray``.
+    """Runs :class:`RunSpec` s as Ray tasks: :class:`Runner` under ``--ray``.
+
+    Call :func:`connect` and :func:`check_capacity` first (a task no node can hold would wait
+    forever).
 
     Args:
         out_dir: evaluation folder; run folders are unpacked into ``out_dir/runs/<run_id>``.
@@ -273,7 +276,6 @@ class RayPool:
         if len(set(ids)) != len(ids):
             raise ValueError("run ids must be unique")
         durations = durations or {}
-        check_capacity(self.cpus, self.memory)
         task = ray.remote(execute_run)
         resources = {"num_cpus": self.cpus, "max_retries": MAX_RETRIES}
         if self.memory:
