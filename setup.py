@@ -71,6 +71,10 @@ setup(
         "test": ["pytest>=8", "hypothesis>=6.100", "ruff>=0.6", "pytest-timeout"],
         # Peers of benchmarks/peer_comparison.py (pulls JAX).
         "bench": ["cbfpy==0.1.0", "elastiqp[jax]>=0.2"],
+        # evaluate --ray: campaigns as Ray tasks. Ray core is enough to start a local Ray,
+        # join a cluster and run tasks; ray[default] (dashboard, ~40 more packages) is the
+        # cluster operator's choice on the head node.
+        "cluster": ["ray>=2.9"],
     },
     zip_safe=False,
     maintainer="safe_legged_c3bf maintainers",

@@ -13,6 +13,12 @@ config/scenarios), ``random-quadruped`` / ``random-biped`` (``--seeds`` random s
 :mod:`safe_legged_c3bf.evaluation.random_scenario`), ``all`` (named and both random suites),
 ``ci`` (one short quadruped run with the filter only).
 
+Campaigns are resumable: every finished run saves its row in its run folder as it ends, and
+the same command on the same ``--out`` continues with the runs not finished yet
+(:mod:`safe_legged_c3bf.evaluation.campaign_state`). ``--ray [ADDRESS]`` runs every run as a
+Ray task, on a Ray started here or on a cluster (:mod:`safe_legged_c3bf.evaluation.ray_pool`;
+needs ``pip install '.[cluster]'``); without it a local pool runs ``--jobs`` at a time.
+
 Exit codes: 0 every run was executed (collisions, falls and dead nodes are results, in the
 tables); 1 some run could not be executed (start-up failure, no report) or nothing ran;
 2 bad arguments; 130 / 143 interrupted (the tables of the finished runs are still written).
@@ -23,15 +29,14 @@ from __future__ import annotations
 
 import argparse
 import math
-import signal
 import sys
-import time
 from datetime import datetime
 from pathlib import Path
 from typing import Any
 
+from safe_legged_c3bf.evaluation.campaign import CampaignResult, run_campaign
+from safe_legged_c3bf.evaluation.campaign_state import CampaignMismatchError, CampaignState
 from safe_legged_c3bf.evaluation.metrics import attach_overhead
-from safe_legged_c3bf.evaluation.results import RUN_COLUMNS, write_csv
 from safe_legged_c3bf.evaluation.results import write_results as _write_results
 from safe_legged_c3bf.evaluation.runner import Runner, RunSpec
 from safe_legged_c3bf.evaluation.suites import (
@@ -96,16 +101,27 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--combine", nargs="+", type=Path, metavar="DIR",
                    help="run nothing: merge the results.csv of these evaluation folders into "
                    "one set of tables and figures in --out (e.g. the two random suites)")
+    p.add_argument("--restart", action="store_true",
+                   help="run every run again, even those --out already finished (default: "
+                   "continue the campaign in --out, running only what is not finished)")
+    ray = p.add_argument_group("Ray (pip install '.[cluster]')")
+    ray.add_argument("--ray", nargs="?", const="local", metavar="ADDRESS",
+                     help="run every run as a Ray task: on a Ray started here (no ADDRESS), "
+                     "or on a cluster ('auto', host:port or ray://host:10001); --jobs is "
+                     "then ignored, Ray runs as many as the CPUs allow")
+    ray.add_argument("--ray-cpus", type=float, default=2.0, metavar="N",
+                     help="CPUs each run reserves (default 2)")
+    ray.add_argument("--ray-memory", type=float, metavar="GB",
+                     help="memory each run reserves (GiB; default none; a run peaks at ~1 GiB)")
+    ray.add_argument("--shared-dir", type=Path, metavar="DIR",
+                     help="a folder every Ray node mounts at the same path: runs write their "
+                     "folders to DIR/runs/ there instead of sending them back to --out")
     p.add_argument("--dry-run", action="store_true", help="list the runs and exit")
     p.add_argument("--no-figures", action="store_true", help="tables only")
     return p
 
 
 # ------------------------------------------------------------------------------ main
-
-
-def _sigterm(signum: int, frame) -> None:  # noqa: ANN001
-    raise KeyboardInterrupt
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -146,10 +162,20 @@ def main(argv: list[str] | None = None) -> int:
     if not specs:
         print("evaluate: nothing to run", file=sys.stderr)
         return EXIT_FAILED
-    records, interrupted, wall = _run(specs, durations, opts, out)
+    pool, where = _make_pool(opts, out)
+    if pool is None:
+        return where  # the exit code; the problem was printed
+    state = CampaignState(out, {"in_process": bool(opts.in_process),
+                                "full_duration": bool(opts.full_duration)})
+    try:
+        result = run_campaign(specs, durations, pool, state, restart=opts.restart)
+    except CampaignMismatchError as err:
+        print(f"evaluate: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    records = result.records
     notes = [
         f"Suite `{suite}`: {len(cases)} scenario(s), {len(records)} of {len(specs)} run(s) "
-        f"finished in {wall / 60:.1f} min wall, {opts.jobs} at a time"
+        f"finished{_session_note(result)}, {where}"
         f"{' (in-process)' if opts.in_process else ''}; "
         f"{datetime.now().strftime('%Y-%m-%d %H:%M')}.",
         _command_note(argv),
@@ -157,7 +183,41 @@ def main(argv: list[str] | None = None) -> int:
     paths = _write_results(records, out, title=f"Evaluation: {suite}", notes=notes,
                            figures=not opts.no_figures)
     _print_summary(records, paths)
-    return _exit_code(records, specs, interrupted)
+    return _exit_code(records, specs, result.interrupted)
+
+
+def _session_note(result: CampaignResult) -> str:
+    """'in 12.3 min wall' or '(31 by earlier sessions; this one ran 19 in 12.3 min wall)'."""
+    if not result.resumed:
+        return f" in {result.wall / 60:.1f} min wall"
+    return (f" ({result.resumed} by earlier sessions; this one ran {result.ran} in "
+            f"{result.wall / 60:.1f} min wall)")
+
+
+def _make_pool(opts: argparse.Namespace, out: Path) -> tuple[Any, Any]:
+    """(pool, description) for the options, or (None, exit code) after printing why not."""
+    if not opts.ray:
+        pool = Runner(out, jobs=opts.jobs, in_process=opts.in_process,
+                      full_duration=opts.full_duration)
+        return pool, f"{opts.jobs} at a time"
+    from safe_legged_c3bf.evaluation import ray_pool
+
+    memory = int(opts.ray_memory * 2**30) if opts.ray_memory else None
+    try:
+        cluster = ray_pool.connect(None if opts.ray == "local" else opts.ray)
+        ray_pool.check_capacity(opts.ray_cpus, memory)
+    except ray_pool.RayUnavailableError as err:
+        print(f"evaluate: {err}", file=sys.stderr)
+        return None, EXIT_USAGE
+    except ray_pool.RayConnectError as err:
+        print(f"evaluate: --ray: {err}", file=sys.stderr)
+        return None, EXIT_FAILED
+    where = (f"on Ray ({'started here' if opts.ray == 'local' else opts.ray}: {cluster}), "
+             f"{opts.ray_cpus:g} CPUs per run")
+    print(f"evaluate: {where}", flush=True)
+    pool = ray_pool.RayPool(out, cpus=opts.ray_cpus, memory=memory, in_process=opts.in_process,
+                            full_duration=opts.full_duration, shared_dir=opts.shared_dir)
+    return pool, where
 
 
 def _usage_problem(opts: argparse.Namespace) -> str | None:
@@ -166,48 +226,23 @@ def _usage_problem(opts: argparse.Namespace) -> str | None:
         return "--jobs and --seeds must be >= 1"
     if opts.duration is not None and not opts.duration > 0:
         return "--duration must be positive"
+    if not opts.ray_cpus > 0 or (opts.ray_memory is not None and not opts.ray_memory > 0):
+        return "--ray-cpus and --ray-memory must be positive"
+    if opts.shared_dir is not None and not opts.ray:
+        return "--shared-dir needs --ray (the local pool writes into --out)"
     return None
 
 
 def _announce(suite: str, cases: list[Case], specs: list[RunSpec], durations: dict[str, float],
               opts: argparse.Namespace, out: Path) -> None:
     """Print what will run and a rough wall-time estimate (min)."""
+    how = (f"as Ray tasks of {opts.ray_cpus:g} CPUs" if opts.ray else f"{opts.jobs} at a time")
     print(f"evaluate: suite {suite}: {len(cases)} scenario(s), {len(specs)} run(s), "
-          f"{opts.jobs} at a time{', in-process' if opts.in_process else ''}; output {out}",
-          flush=True)
+          f"{how}{', in-process' if opts.in_process else ''}; output {out}", flush=True)
     sim_total = sum(durations.values())
-    print(f"evaluate: {sim_total:.0f} s of sim time in total "
-          f"(at a real-time factor of ~0.35 about {sim_total / 0.35 / opts.jobs / 60:.0f} min)",
-          flush=True)
-
-
-def _run(specs: list[RunSpec], durations: dict[str, float], opts: argparse.Namespace,
-         out: Path) -> tuple[list[dict[str, Any]], bool, float]:
-    """Run ``specs``: (result rows, interrupted, wall time in s).
-
-    results.csv is rewritten after every finished run; Ctrl-C or SIGTERM stops the runs and
-    keeps the rows of the finished ones.
-    """
-    done: list[dict[str, Any]] = []
-
-    def on_result(rec: dict[str, Any]) -> None:
-        done.append(rec)  # partial table while the evaluation runs
-        write_csv(out / "results.csv", attach_overhead(list(done)), RUN_COLUMNS)
-
-    previous = signal.signal(signal.SIGTERM, _sigterm)
-    runner = Runner(out, jobs=opts.jobs, in_process=opts.in_process,
-                    full_duration=opts.full_duration)
-    t0 = time.monotonic()
-    interrupted = False
-    try:
-        records = runner.run(specs, durations, on_result=on_result)
-    except KeyboardInterrupt:
-        interrupted = True
-        records = list(done)
-        print("evaluate: interrupted; writing the results of the finished runs", flush=True)
-    finally:
-        signal.signal(signal.SIGTERM, previous)
-    return records, interrupted, time.monotonic() - t0
+    estimate = "" if opts.ray else (
+        f" (at a real-time factor of ~0.35 about {sim_total / 0.35 / opts.jobs / 60:.0f} min)")
+    print(f"evaluate: {sim_total:.0f} s of sim time in total{estimate}", flush=True)
 
 
 def _exit_code(records: list[dict[str, Any]], specs: list[RunSpec], interrupted: bool) -> int:
@@ -259,10 +294,12 @@ def combine(folders: list[Path], out: Path | None, figures: bool,
 
 
 def _print_summary(records: list[dict[str, Any]], paths: dict[str, Path]) -> None:
-    from safe_legged_c3bf.evaluation.metrics import aggregate
+    from safe_legged_c3bf.evaluation.metrics import aggregate, collision_bound
 
-    print("\nevaluate: summary (obstacle runs; rates over valid runs)")
-    for row in aggregate(records, ("robot", "filter")):
+    print("\nevaluate: summary (obstacle runs; rates over valid runs; 95 % intervals in "
+          "results.md)")
+    rows = aggregate(records, ("robot", "filter"))
+    for row in rows:
         def pct(x: float | None) -> str:
             return "  – " if x is None else f"{100 * x:3.0f}%"
 
@@ -274,6 +311,8 @@ def _print_summary(records: list[dict[str, Any]], paths: dict[str, Path]) -> Non
               f"{'–' if clear is None else f'{clear if abs(clear) >= 5e-4 else 0.0:.3f} m'}"
               f"  overhead {'–' if over is None or not math.isfinite(over) else f'{over:+.1f} s'}"
               f"  run failures {row['run_failures']}")
+    for row in rows:
+        print(f"  {row['robot']} filter {row['filter']}: {collision_bound(row)}")
     for key in ("markdown", "csv", "summary"):
         print(f"  {key:<9} {paths[key]}")
 

@@ -1,6 +1,6 @@
 """The evaluation figures: per (robot, scenario kind) group, filter on against off.
 
-:func:`write_figures` draws ``outcomes.png`` (collision and success rates, %),
+:func:`write_figures` draws ``outcomes.png`` (collision and success rates, %, with 95 % intervals),
 ``clearance.png`` (min robot-obstacle distance per run, m, ground truth), ``overhead.png``
 (time-to-goal overhead, s), ``intervention.png`` (share of the run the filter changed the
 command, %) and ``solve_time.png`` (filter solve time, ms) from the result rows of
@@ -106,22 +106,26 @@ def write_figures(records: Sequence[dict[str, Any]], folder: Path) -> list[str]:
 
 
 def _outcomes(groups: _Groups, folder: Path) -> str:
-    """Collision rate (filter on / off) and success rate (filter on) per group, %."""
+    """Collision (filter on / off) and success rates (filter on) per group, % with 95 % bars."""
     fig, ax = _new_figure(groups)
     x = groups.x
     bars = (("on", "collision_rate", "tab:red", "collision, filter on"),
             ("off", "collision_rate", "salmon", "collision, filter off"),
             ("on", "success_rate", "tab:green", "success, filter on"))
     for k, (filt, key, color, label) in enumerate(bars):
-        vals = [summarize_group(groups.pick(rb, kd, filt)).get(key) for rb, kd in groups.keys]
-        heights = [np.nan if v is None else 100 * v for v in vals]
-        bars_k = ax.bar(x + (k - 1) * 0.27, heights, 0.25, color=color, label=label)
+        rows = [summarize_group(groups.pick(rb, kd, filt)) for rb, kd in groups.keys]
+        heights = [np.nan if r.get(key) is None else 100 * r[key] for r in rows]
+        err = np.array([[0.0, 0.0] if r.get(key) is None else
+                        [100 * (r[key] - r[f"{key}_lo"]), 100 * (r[f"{key}_hi"] - r[key])]
+                        for r in rows]).T
+        bars_k = ax.bar(x + (k - 1) * 0.27, heights, 0.25, color=color, label=label,
+                        yerr=err, error_kw={"elinewidth": 0.8, "capsize": 2})
         ax.bar_label(bars_k, labels=["" if np.isnan(h) else f"{h:.0f}" for h in heights],
                      fontsize=7)
     ax.set_xticks(x, groups.names, fontsize=8)
     ax.set_ylabel("% of runs")
     ax.set_ylim(0, 110)
-    ax.set_title("Collisions and successes per scenario kind")
+    ax.set_title("Collisions and successes per scenario kind (bars: 95 % intervals)")
     ax.legend(fontsize=8, loc="upper right")
     return _save(fig, ax, folder, "outcomes")
 

@@ -10,7 +10,10 @@ computes, per group (metric definitions: doc/evaluation.md):
   trustworthy result (start-up failure, node died, wall timeout, interrupted), which the
   rates below exclude (``valid`` = runs - run_failures);
 * ``collision_rate``, ``fall_rate``, ``goal_rate`` and ``success_rate`` (goal reached or
-  stopped and held before an impassable obstacle, no collision, no fall) over the valid runs;
+  stopped and held before an impassable obstacle, no collision, no fall) over the valid runs,
+  each with its 95 % Clopper-Pearson interval (``<rate>_lo``, ``<rate>_hi``;
+  :mod:`.stats`), and ``collision_upper``: the one-sided 95 % upper bound of the collision
+  rate the group's runs support;
 * ``collisions``: valid runs with a collision that are not flagged unsurvivable;
   ``unsurvivable_runs`` / ``unsurvivable_collided``: flagged runs and those of them with a
   collision (:mod:`.unsurvivable`); ``impassable_runs`` / ``stopped_impassable``: runs with
@@ -32,9 +35,13 @@ from typing import Any
 
 import numpy as np
 
+from safe_legged_c3bf.evaluation import stats
 from safe_legged_c3bf.evaluation.runner import RUN_FAILURES
 
-#: Columns of the aggregate tables (after the group keys).
+#: The rates of a group; each has a 95 % interval in ``<rate>_lo`` and ``<rate>_hi``.
+RATES = ("collision_rate", "fall_rate", "goal_rate", "success_rate")
+#: Columns of the aggregate tables (after the group keys); results.md shows the interval of
+#: a rate in the rate's cell, summary.csv has the ``_lo`` / ``_hi`` columns too.
 SUMMARY_COLUMNS = (
     "runs", "run_failures", "valid", "collision_rate", "collisions", "unsurvivable_runs",
     "unsurvivable_collided", "fall_rate", "goal_rate", "impassable_runs", "stopped_impassable",
@@ -42,6 +49,11 @@ SUMMARY_COLUMNS = (
     "clearance_median", "overhead_mean_s", "overhead_max_s", "overhead_mean_pct",
     "intervention_mean", "solve_median_ms", "solve_p99_max_ms", "solve_max_ms",
 )
+#: SUMMARY_COLUMNS with every rate followed by its interval, and the collision-rate bound.
+SUMMARY_CSV_COLUMNS = tuple(
+    c for key in SUMMARY_COLUMNS
+    for c in ((key, f"{key}_lo", f"{key}_hi") if key in RATES else (key,))
+) + ("collision_upper",)
 #: Columns of the side-by-side table of the filter's body models (same seeds).
 BODY_MODEL_COLUMNS = (
     "runs", "valid", "collisions", "unsurvivable_runs", "unsurvivable_collided", "goal_rate",
@@ -78,10 +90,33 @@ def _stat(values: np.ndarray, fn: str) -> float | None:
     raise ValueError(fn)
 
 
-def _rate(rows: Sequence[dict[str, Any]], predicate) -> float | None:  # noqa: ANN001
-    if not rows:
-        return None
-    return sum(1 for r in rows if predicate(r)) / len(rows)
+def _rates(valid: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """The :data:`RATES` of the valid runs with their 95 % intervals and the collision bound."""
+    tests = {
+        "collision_rate": lambda r: bool(r.get("collision")),
+        "fall_rate": lambda r: bool(r.get("fallen")),
+        "goal_rate": lambda r: bool(r.get("goal_reached")),
+        "success_rate": is_success,
+    }
+    n = len(valid)
+    out: dict[str, Any] = {}
+    for key, test in tests.items():
+        k = sum(1 for r in valid if test(r))
+        ci = stats.interval(k, n)
+        out[key] = k / n if n else None
+        out[f"{key}_lo"], out[f"{key}_hi"] = (round(ci[0], 6), round(ci[1], 6)) if ci else (
+            None, None)
+        if key == "collision_rate":
+            upper = stats.upper_bound(k, n)
+            out["collision_upper"] = None if upper is None else round(upper, 6)
+    return out
+
+
+def collision_bound(row: dict[str, Any]) -> str:
+    """The collision-rate bound an aggregate row supports, in words (:mod:`.stats`)."""
+    n = int(row.get("valid") or 0)
+    k = round((row.get("collision_rate") or 0.0) * n)
+    return stats.bound_sentence(k, n, "collision")
 
 
 def is_success(rec: dict[str, Any]) -> bool:
@@ -120,10 +155,7 @@ def summarize_group(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "runs": len(rows),
         "run_failures": len(rows) - len(valid),
         "valid": len(valid),
-        "collision_rate": _rate(valid, lambda r: bool(r.get("collision"))),
-        "fall_rate": _rate(valid, lambda r: bool(r.get("fallen"))),
-        "goal_rate": _rate(valid, lambda r: bool(r.get("goal_reached"))),
-        "success_rate": _rate(valid, is_success),
+        **_rates(valid),
         "infeasible_runs": sum(1 for r in valid if (r.get("relaxed_share") or 0) > 0),
         "relaxed_mean": _stat(finite_values(filtered, "relaxed_share"), "mean"),
     }

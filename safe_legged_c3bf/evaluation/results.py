@@ -4,7 +4,8 @@ Input: the result rows of :func:`safe_legged_c3bf.evaluation.runner.record_from_
 (plain dicts, one per bringup run); the metrics are computed in
 :mod:`safe_legged_c3bf.evaluation.metrics` (definitions there and in doc/evaluation.md).
 :func:`write_results` writes ``results.md``, ``results.csv`` (one row per run),
-``summary.csv`` (the aggregate rows) and ``figures/*.png`` into a folder; :func:`read_csv`
+``summary.csv`` (the aggregate rows, every rate with its 95 % interval) and
+``figures/*.png`` into a folder; :func:`read_csv`
 reads a ``results.csv`` back.
 """
 
@@ -19,16 +20,20 @@ from typing import Any
 from safe_legged_c3bf.evaluation.figures import FIGURES, write_figures
 from safe_legged_c3bf.evaluation.metrics import (
     BODY_MODEL_COLUMNS,
+    RATES,
     SUMMARY_COLUMNS,
+    SUMMARY_CSV_COLUMNS,
     aggregate,
     attach_overhead,
+    collision_bound,
     is_success,
     summarize_group,
 )
 from safe_legged_c3bf.evaluation.runner import RUN_FAILURES
 
 __all__ = [  # metrics and figures are re-exported from their modules
-    "FIGURES", "RUN_COLUMNS", "RUN_TABLE", "SUMMARY_COLUMNS", "SUMMARY_HEADERS", "aggregate",
+    "FIGURES", "RUN_COLUMNS", "RUN_TABLE", "SUMMARY_COLUMNS", "SUMMARY_CSV_COLUMNS",
+    "SUMMARY_HEADERS", "aggregate",
     "attach_overhead", "is_success", "markdown_table", "read_csv", "results_markdown",
     "summarize_group", "write_csv", "write_figures", "write_results",
 ]
@@ -72,13 +77,26 @@ def _cell(value: Any, key: str = "") -> str:
     return str(value)
 
 
+def _rate_cell(row: dict[str, Any], key: str) -> str:
+    """A rate with its 95 % interval when the row has one: "4.0 % (0.5-13.7)"."""
+    text = _cell(row.get(key), key)
+    lo, hi = row.get(f"{key}_lo"), row.get(f"{key}_hi")
+    if key in RATES and lo is not None and hi is not None and row.get(key) is not None:
+        text += f" ({100 * lo:.1f}–{100 * hi:.1f})"
+    return text
+
+
 def markdown_table(rows: Sequence[dict[str, Any]], columns: Sequence[str],
                    headers: Sequence[str] | None = None) -> str:
-    """A GitHub Markdown table of ``rows`` (formatted per column name)."""
+    """A GitHub Markdown table of ``rows`` (formatted per column name).
+
+    A rate column shows the 95 % interval of the rate in percent after it, when the row
+    carries one (``<rate>_lo``, ``<rate>_hi``: the aggregate rows).
+    """
     headers = list(headers or columns)
     lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
     for r in rows:
-        lines.append("| " + " | ".join(_cell(r.get(c), c) for c in columns) + " |")
+        lines.append("| " + " | ".join(_rate_cell(r, c) for c in columns) + " |")
     return "\n".join(lines)
 
 
@@ -155,6 +173,16 @@ def _body_model_section(records: Sequence[dict[str, Any]]) -> list[str]:
     ]
 
 
+def _bounds_section(by_filter: Sequence[dict[str, Any]]) -> list[str]:
+    """The collision-rate bound each robot and filter setting supports, in words."""
+    if not by_filter:
+        return []
+    lines = ["### Collision-rate bounds the campaign supports", ""]
+    for row in by_filter:
+        lines.append(f"- {row['robot']}, filter {row['filter']}: {collision_bound(row)}")
+    return [*lines, ""]
+
+
 def results_markdown(
     records: Sequence[dict[str, Any]], title: str = "Evaluation results",
     notes: Sequence[str] = (), figures: Sequence[str] = (),
@@ -162,17 +190,19 @@ def results_markdown(
     """The whole results.md text."""
     keys = list(SUMMARY_COLUMNS)
     heads = [SUMMARY_HEADERS[k] for k in keys]
+    by_filter = aggregate(records, ("robot", "filter"))
     parts = [f"# {title}", ""]
     parts += [f"{n}" for n in notes]
     if notes:
         parts.append("")
     parts += [
-        "Metrics: doc/evaluation.md. Rates are over the valid runs (run failures excluded); "
+        "Metrics: doc/evaluation.md. Rates are over the valid runs (run failures excluded), "
+        "each followed by its 95 % Clopper-Pearson interval in percent; "
         "'overhead' is the time to goal minus that of the same scenario without obstacles "
         "(filter on, goal reached in both).", "",
         "## By robot and filter", "",
-        markdown_table(aggregate(records, ("robot", "filter")), ["robot", "filter", *keys],
-                       ["robot", "filter", *heads]), "",
+        markdown_table(by_filter, ["robot", "filter", *keys], ["robot", "filter", *heads]), "",
+        *_bounds_section(by_filter),
         "## By robot, scenario kind and filter", "",
         markdown_table(aggregate(records, ("robot", "kind", "filter")),
                        ["robot", "kind", "filter", *keys], ["robot", "kind", "filter", *heads]),
@@ -221,7 +251,7 @@ def write_results(
              "markdown": out / "results.md"}
     write_csv(paths["csv"], records, RUN_COLUMNS)
     summary_rows = aggregate(records, ("robot", "kind", "filter"))
-    write_csv(paths["summary"], summary_rows, ("robot", "kind", "filter", *SUMMARY_COLUMNS))
+    write_csv(paths["summary"], summary_rows, ("robot", "kind", "filter", *SUMMARY_CSV_COLUMNS))
     written: list[str] = []
     if figures:
         try:

@@ -282,6 +282,8 @@ class Runner:
         progress: called with each progress line (default: print to stdout).
         wall_limit: wall seconds allowed per run given its sim duration (default:
             ``STARTUP_ALLOWANCE + duration / MIN_REAL_TIME_FACTOR``).
+        on_start: called with the spec and the bringup's Popen once it started (e.g. to
+            watch its process group).
 
     """
 
@@ -294,6 +296,7 @@ class Runner:
         python: str | None = None,
         progress: Callable[[str], None] | None = None,
         wall_limit: Callable[[float], float] | None = None,
+        on_start: Callable[[RunSpec, subprocess.Popen], None] | None = None,
     ) -> None:
         """Prepare a runner writing under ``out_dir``."""
         self.out_dir = Path(out_dir)
@@ -305,6 +308,7 @@ class Runner:
         self._wall_limit = wall_limit or (
             lambda duration: STARTUP_ALLOWANCE + duration / MIN_REAL_TIME_FACTOR
         )
+        self._on_start = on_start
         self._lock = threading.Lock()
         self._active: dict[str, _Active] = {}
         self._stopping = False
@@ -381,7 +385,7 @@ class Runner:
                     "outcome": "interrupted", "failures": "interrupted",
                     "reason": "evaluation interrupted before the run started"}
         cmd = bringup_command(spec, run_dir, self.in_process, self.python, self.full_duration)
-        label = _label(spec)
+        label = run_label(spec)
         self._say(f"start {label}")
         limit = self._wall_limit(spec.duration or duration)
         started = time.monotonic()
@@ -404,6 +408,11 @@ class Runner:
             with self._lock:
                 self._active[spec.run_id] = _Active(spec, proc, started)
             try:
+                if self._on_start is not None:
+                    try:
+                        self._on_start(spec, proc)
+                    except Exception as err:  # noqa: BLE001 - must not orphan the bringup
+                        self._say(f"note  {label}: on_start failed: {err!r}")
                 try:
                     code = proc.wait(timeout=limit)
                 except subprocess.TimeoutExpired:
@@ -434,7 +443,8 @@ class Runner:
         return rec
 
 
-def _label(spec: RunSpec) -> str:
+def run_label(spec: RunSpec) -> str:
+    """The run in words for the progress output: "<scenario> seed 3 (filter on)"."""
     name = Path(spec.scenario).stem if spec.scenario.endswith((".yaml", ".yml")) else spec.scenario
     seed = "" if spec.seed is None else f" seed {spec.seed}"
     return f"{name}{seed} ({'filter on' if spec.filter_enabled else 'filter OFF'}" + (
