@@ -18,12 +18,11 @@ import time
 from pathlib import Path
 
 import pytest
+import ray  # noqa: F401 - in the test extra: a missing Ray fails here, it is never skipped
 
 from safe_legged_c3bf.evaluation.campaign_state import ROW_FILE
 from safe_legged_c3bf.evaluation.orphan_guard import group_alive
 from safe_legged_c3bf.evaluation.results import read_csv
-
-ray = pytest.importorskip("ray", reason="the cluster extra: pip install '.[cluster]'")
 
 pytestmark = pytest.mark.slow
 
