@@ -11,11 +11,11 @@ import time
 import pytest
 
 
-def _start_filter_node() -> subprocess.Popen:
+def _start_filter_node(log) -> subprocess.Popen:
     env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     return subprocess.Popen(
         [sys.executable, "-m", "safe_legged_c3bf.nodes.safety_filter_node"],
-        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        env=env, stdout=subprocess.DEVNULL, stderr=log,
     )
 
 
@@ -38,9 +38,11 @@ def _wait_until_spinning(proc: subprocess.Popen, ctx, timeout: float = 30.0) -> 
 
 
 @pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
-def test_node_process_exits_on_signal(signum, ros_executor):
-    for _ in range(3):  # the hang this guards against was intermittent
-        proc = _start_filter_node()
+def test_node_process_exits_on_signal(signum, ros_executor, tmp_path):
+    for k in range(3):  # the hang this guards against was intermittent
+        log_path = tmp_path / f"node{k}.log"
+        log = open(log_path, "w")  # noqa: SIM115 - closed in finally
+        proc = _start_filter_node(log)
         try:
             _wait_until_spinning(proc, ros_executor.context_for_nodes)
             time.sleep(0.3)
@@ -49,8 +51,9 @@ def test_node_process_exits_on_signal(signum, ros_executor):
                 code = proc.wait(timeout=15.0)
             except subprocess.TimeoutExpired:
                 raise AssertionError(f"node still running 15 s after {signum!r}") from None
-            assert code == 0, f"exit {code} after {signum!r}"
+            assert code == 0, f"exit {code} after {signum!r}: {log_path.read_text()[-2000:]}"
         finally:
+            log.close()
             if proc.poll() is None:
                 proc.kill()
                 proc.wait()

@@ -139,7 +139,12 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         while rclpy.ok():
-            executor.spin_once(timeout_sec=SPIN_WAKE_PERIOD)
+            try:
+                executor.spin_once(timeout_sec=SPIN_WAKE_PERIOD)
+            except Exception:
+                if rclpy.ok():
+                    raise
+                break  # a signal shut the context down during the call: a clean exit
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
