@@ -33,7 +33,6 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from safe_legged_c3bf.run.ros_domain import isolate_environment
 from safe_legged_c3bf.sim.scenario import resolve_scenario
 
 SCENARIOS = {"quadruped": "quadruped_default", "biped": "biped_default"}
@@ -55,8 +54,7 @@ def scenario_file(robot: str, body_model: str | None, folder: Path) -> str:
 
 
 def run_once(scenario: str, seconds: float, mode: str, in_process: bool, out: Path) -> dict:
-    """One bringup run; its report's figures (or the failure)."""
-    env, lease = isolate_environment(dict(os.environ))
+    """One bringup run (it leases its own private ROS domain); its report's figures."""
     cmd = [sys.executable, "-m", "safe_legged_c3bf.bringup", "--scenario", scenario,
            "--duration", str(seconds), "--full-duration", "--out", str(out),
            "--progress-period", "60"]
@@ -64,11 +62,8 @@ def run_once(scenario: str, seconds: float, mode: str, in_process: bool, out: Pa
         cmd.append("--no-lockstep")
     if in_process:
         cmd.append("--in-process")
-    try:
-        proc = subprocess.run(cmd, env=env, capture_output=True, text=True,
-                              timeout=120 + 10 * seconds, check=False)
-    finally:
-        lease.release()
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120 + 10 * seconds,
+                          check=False)
     report_path = out / "report.json"
     if not report_path.is_file():
         return {"error": f"exit {proc.returncode}: {proc.stderr.strip()[-300:]}"}

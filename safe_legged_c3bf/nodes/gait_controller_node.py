@@ -74,6 +74,7 @@ class GaitControllerNode(Node):
         self._start_subscribers = int(p.start_subscribers)
         self._start_wait = float(p.start_wait)
         self._start_deadline: float | None = None  # wall s, set by the first state
+        self._start_held = True  # until the readers are there or start_wait has passed
 
         self._pub = ros_common.publisher(self, topics.JOINT_COMMANDS)
         self._diag_pub = ros_common.publisher(self, topics.DIAGNOSTICS)
@@ -239,10 +240,10 @@ class GaitControllerNode(Node):
         Physics starts with the first command; the simulator republishes its t = 0 state until
         then, so holding it lets a recorder match /joint_commands before any command goes out.
         """
-        if self._last_msg is not None or self._start_wait <= 0.0:
+        if not self._start_held:
             return False
         if self._pub.get_subscription_count() >= self._start_subscribers:
-            self._start_wait = 0.0
+            self._start_held = False
             return False
         now = time.monotonic()
         if self._start_deadline is None:
@@ -253,7 +254,7 @@ class GaitControllerNode(Node):
             f"/joint_commands has {self._pub.get_subscription_count()} of "
             f"{self._start_subscribers} subscribers after {self._start_wait:g} s: starting anyway"
         )
-        self._start_wait = 0.0
+        self._start_held = False
         return False
 
     def _resend_if_republished(self) -> None:
