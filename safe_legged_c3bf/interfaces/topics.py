@@ -66,8 +66,9 @@ JOINT_COMMANDS = Topic(
     "per-joint q, dq, kp, kd, tau for the motor drivers", depth=5,
 )
 OBSTACLE_DETECTIONS = Topic(
-    "/obstacles/detections", "safe_legged_c3bf_msgs/msg/ObstacleArray", "simulator",
-    "what perception sees: positions and shapes, no velocities, noisy, with drop-outs",
+    "/obstacles/detections", "safe_legged_c3bf_msgs/msg/ObstacleArray",
+    "simulator (oracle perception) / obstacle_detector (sensors perception)",
+    "what perception sees: positions and shapes in odom, no velocities, noisy, with drop-outs",
 )
 OBSTACLES = Topic(
     "/obstacles", "safe_legged_c3bf_msgs/msg/ObstacleArray", "obstacle_tracker",
@@ -76,6 +77,15 @@ OBSTACLES = Topic(
 OBSTACLE_MARKERS = Topic(
     "/obstacles/markers", "visualization_msgs/msg/MarkerArray", "obstacle_tracker",
     "tracked obstacles and their inflated circles, for RViz/Foxglove",
+)
+SCAN = Topic(
+    "/scan", "sensor_msgs/msg/LaserScan", "simulator (sensors perception) / robot driver",
+    "2-D LiDAR ranges in lidar_link (x forward, angles about z), best effort", reliable=False,
+    depth=5,
+)
+POINTS = Topic(
+    "/points", "sensor_msgs/msg/PointCloud2", "simulator (sensors perception) / robot driver",
+    "forward 3-D sensor, float32 x y z in depth_link, best effort", reliable=False, depth=5,
 )
 GOAL_POSE = Topic(
     "/goal_pose", "geometry_msgs/msg/PoseStamped", "user / bringup",
@@ -107,7 +117,7 @@ GROUND_TRUTH_OBSTACLES = Topic(
 )
 
 CONTRACT: tuple[Topic, ...] = (
-    CLOCK, ODOM, IMU, JOINT_STATES, JOINT_COMMANDS, OBSTACLE_DETECTIONS, OBSTACLES,
+    CLOCK, ODOM, IMU, JOINT_STATES, JOINT_COMMANDS, SCAN, POINTS, OBSTACLE_DETECTIONS, OBSTACLES,
     OBSTACLE_MARKERS, GOAL_POSE, CMD_VEL, CMD_VEL_SAFE, FILTER_STATE, DIAGNOSTICS,
     GROUND_TRUTH_SAFETY, GROUND_TRUTH_OBSTACLES,
 )

@@ -1,0 +1,86 @@
+"""Where the simulated range sensors sit on each robot, and their frames (REP-103, REP-105).
+
+One place for the mounting poses: the simulator casts its rays from them and the obstacle
+detector turns the sensors' points into odom with them (base_link -> sensor is static; odom ->
+base_link comes from ``/odom``). On a real robot the detector's parameters take the mounts of
+the real sensors instead (doc/deploy.md).
+
+Sensor frames follow REP-103 body conventions (x forward, y left, z up), not the optical
+convention: ``LaserScan`` angles are about the sensor's z axis from its x axis, and
+``PointCloud2`` points are x/y/z in the sensor frame.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+#: Frame of the 2-D LiDAR (``/scan``).
+LIDAR_FRAME = "lidar_link"
+#: Frame of the forward 3-D sensor (``/points``).
+DEPTH_FRAME = "depth_link"
+
+
+@dataclass(frozen=True)
+class SensorMount:
+    """A sensor's pose in base_link.
+
+    Attributes:
+        frame_id: the sensor's frame name, as in its messages' ``header.frame_id``.
+        xyz: (3,) position of the sensor origin in base_link (m).
+        rpy: (3,) roll, pitch, yaw of the sensor frame in base_link (rad, fixed axes x-y-z).
+
+    """
+
+    frame_id: str
+    xyz: tuple[float, float, float]
+    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def rotation(self) -> np.ndarray:
+        """(3, 3) rotation taking sensor-frame vectors into base_link."""
+        return rpy_to_matrix(*self.rpy)
+
+    def matrix(self) -> np.ndarray:
+        """(4, 4) homogeneous transform base_link <- sensor."""
+        out = np.eye(4)
+        out[:3, :3] = self.rotation()
+        out[:3, 3] = self.xyz
+        return out
+
+
+def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """(3, 3) rotation R = Rz(yaw) Ry(pitch) Rx(roll) (fixed axes x, then y, then z; rad)."""
+    cr, sr = math.cos(roll), math.sin(roll)
+    cp, sp = math.cos(pitch), math.sin(pitch)
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    return np.array([
+        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+        [-sp, cp * sr, cp * cr],
+    ])
+
+
+# A1: trunk collision box 0.267 x 0.194 x 0.114 m about the base origin (top at +0.057 m).
+# The LiDAR sits on the trunk's top near its front, 4 cm above it (its plane is above the legs
+# and the trunk itself); the 3-D sensor looks forward from the trunk's front face, level.
+_A1_MOUNTS = (
+    SensorMount(LIDAR_FRAME, (0.10, 0.0, 0.097)),
+    SensorMount(DEPTH_FRAME, (0.145, 0.0, 0.03)),
+)
+# Biped: torso box 0.3 m high centred 0.08 m above the base origin (top at +0.23 m). The
+# LiDAR on the torso top, the 3-D sensor on the chest looking forward and 20 deg down so
+# that the ground ahead of the feet and bars above the head are both in view.
+_BIPED_MOUNTS = (
+    SensorMount(LIDAR_FRAME, (0.05, 0.0, 0.27)),
+    SensorMount(DEPTH_FRAME, (0.10, 0.0, 0.15), (0.0, math.radians(20.0), 0.0)),
+)
+
+
+def default_mounts(robot_kind: str) -> dict[str, SensorMount]:
+    """The simulated sensors' mounts of a robot ('quadruped' or 'biped'), by frame name."""
+    table = {"quadruped": _A1_MOUNTS, "biped": _BIPED_MOUNTS}
+    if robot_kind not in table:
+        raise ValueError(f"no sensor mounts for robot kind {robot_kind!r}")
+    return {m.frame_id: m for m in table[robot_kind]}
