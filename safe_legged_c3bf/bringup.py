@@ -43,6 +43,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--gui", action="store_true", help="open the PyBullet GUI (needs a display)")
     p.add_argument("--no-filter", action="store_true",
                    help="run the safety filter disabled (pass-through), for comparison")
+    p.add_argument("--perception", choices=("oracle", "sensors"),
+                   help="where obstacle detections come from: the simulator's oracle (noisy "
+                   "true shapes) or the obstacle detector on the simulated LiDAR and 3-D "
+                   "sensor (default: the scenario's perception.source, else oracle)")
     p.add_argument("--in-process", action="store_true",
                    help="compose all nodes on one executor in this process")
     p.add_argument("--record", metavar="FILE.mcap", type=Path,
@@ -134,6 +138,7 @@ def main(args: list[str] | None = None) -> int:
         f"bringup: scenario {plan.scenario.name} ({plan.context.robot}, "
         f"{plan.scenario.duration:g} s sim), "
         f"filter {'on' if plan.context.filter_enabled else 'OFF'}, "
+        f"perception {plan.context.perception}, "
         f"{'in-process' if opts.in_process else 'one process per node'}\n"
         f"bringup: ROS domain {domain}{' (localhost only)' if local else ''}; watch with "
         f"`python -m safe_legged_c3bf.echo /cmd_vel_safe --domain-id {domain}`\n"

@@ -16,7 +16,7 @@ from typing import Any
 
 import yaml
 
-from safe_legged_c3bf.run.graph import GRAPH_NODES, NODE_NAMES, RECORDER_MODULE, node_modules
+from safe_legged_c3bf.run.graph import RECORDER_MODULE, graph_for, node_modules
 from safe_legged_c3bf.run.outcome import StartupError
 from safe_legged_c3bf.run.parameters import (
     config_files,
@@ -83,6 +83,10 @@ def load_scenario_once(opts: argparse.Namespace) -> tuple[dict[str, Any], Any]:
             raw["duration"] = float(opts.duration)
         if opts.seed is not None:
             raw["seed"] = int(opts.seed)
+        if getattr(opts, "perception", None) is not None:
+            perception = raw.get("perception")
+            raw["perception"] = {**(perception if isinstance(perception, dict) else {}),
+                                 "source": opts.perception}
         raw.setdefault("name", source.stem)
         try:
             scenario = parse_scenario(raw, name=source.stem, source=str(source))
@@ -123,7 +127,10 @@ def make_plan(opts: argparse.Namespace) -> RunPlan:
     raw, scenario = load_scenario_once(opts)
     _check_output_files(opts)
     run_dir = (opts.out or _default_run_dir(scenario.name)).resolve()
-    run_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        run_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise StartupError(f"--out {run_dir}: cannot create the run folder: {err}") from None
     scenario_file = _write_scenario(run_dir, raw)
     scenario = dataclasses.replace(scenario, source=str(scenario_file))
 
@@ -132,17 +139,23 @@ def make_plan(opts: argparse.Namespace) -> RunPlan:
     specs = [
         NodeSpec(name=name, module=modules[name], parameters=params[name],
                  params_files=config_files(name))
-        for name, _ in GRAPH_NODES
+        for name in graph_for(perception_source(scenario))
     ]
     recorder = None
     if opts.record is not None:
         recorder = NodeSpec(name="recorder", module=RECORDER_MODULE,
                             args=[str(opts.record.resolve())])
-    ctx = _context(opts, scenario, merged_parameters(specs[NODE_NAMES.index("safety_filter")]))
+    filter_spec = next(s for s in specs if s.name == "safety_filter")
+    ctx = _context(opts, scenario, merged_parameters(filter_spec))
     for remap in opts.remap:
         if ":=" not in remap:
             raise StartupError(f"--remap {remap!r}: expected FROM:=TO")
     return RunPlan(scenario, scenario_file, run_dir, specs, recorder, ctx, list(opts.remap))
+
+
+def perception_source(scenario: Any) -> str:
+    """'oracle' or 'sensors': where the run's obstacle detections come from."""
+    return str(getattr(scenario.perception, "source", "oracle"))
 
 
 def _context(opts: argparse.Namespace, scenario: Any, filter_params: dict[str, Any]) -> RunContext:
@@ -156,4 +169,5 @@ def _context(opts: argparse.Namespace, scenario: Any, filter_params: dict[str, A
         duration=scenario.duration, robot_width=width, robot_height=height,
         safety_margin=margin, filter_enabled=bool(filter_params.get("enabled", True)),
         mode="in-process" if opts.in_process else "processes",
+        perception=perception_source(scenario),
     )

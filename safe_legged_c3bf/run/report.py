@@ -38,6 +38,7 @@ class RunContext:
         safety_margin: extra inflation of every obstacle (m), as in the filter.
         filter_enabled: whether the safety filter was enabled.
         mode: 'processes' or 'in-process'.
+        perception: 'oracle' (the simulator's detections) or 'sensors' (the detector node).
         wall_time: wall seconds from start of the nodes to the end of the run.
         outcome: 'completed', 'node_died', 'startup_failed', 'interrupted'.
         reason: one line explaining the outcome.
@@ -55,6 +56,7 @@ class RunContext:
     safety_margin: float = 0.0
     filter_enabled: bool = True
     mode: str = "processes"
+    perception: str = "oracle"
     wall_time: float = 0.0
     outcome: str = "completed"
     reason: str = ""
@@ -97,6 +99,7 @@ def summarize(
         "robot": ctx.robot,
         "filter_enabled": ctx.filter_enabled,
         "mode": ctx.mode,
+        "perception": ctx.perception,
         "outcome": ctx.outcome,
         "completed": ctx.outcome == "completed",
         "reason": ctx.reason,
