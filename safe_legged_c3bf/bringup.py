@@ -93,6 +93,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--progress-period", type=float, metavar="S",
                    help="seconds between progress lines (default 0.25 on a terminal, where "
                    "the line is rewritten in place, else 5)")
+    g = p.add_argument_group(
+        "deployment on a real robot (doc/deploy.md)",
+        "--deploy runs the safety pipeline alone (obstacle detector, tracker, filter) on the "
+        "robot's topics: /scan and/or /points, /odom and /cmd_vel in, /cmd_vel_safe out; no "
+        "simulator, no scenario, the environment's ROS domain, the system clock.")
+    g.add_argument("--deploy", action="store_true", help="run the safety pipeline alone")
+    g.add_argument("--robot", default="quadruped", metavar="KIND",
+                   help="robot profile and sensor mounts: quadruped (default) or biped")
+    g.add_argument("--with-planner", action="store_true",
+                   help="also run the reference planner (goals on /goal_pose)")
+    g.add_argument("--use-sim-time", action="store_true",
+                   help="run the pipeline on /clock (replaying a recording)")
+    g.add_argument("--params-file", action="append", default=[], type=Path, metavar="FILE",
+                   help="ROS 2 parameter file applied last to the pipeline's nodes "
+                   "(repeatable)")
     p.add_argument("--verbose", "-v", action="store_true",
                    help="also print the nodes' log lines (they always go to <out>/logs/)")
     return p
@@ -125,6 +140,8 @@ def main(args: list[str] | None = None) -> int:
 
         print("\n".join(available_scenarios()))
         return EXIT_OK
+    if opts.deploy:
+        return _deploy(opts)
     lease = None
     try:
         plan = make_plan(opts)
@@ -153,6 +170,24 @@ def main(args: list[str] | None = None) -> int:
     finally:
         if lease is not None:
             lease.release()
+
+
+def _deploy(opts: argparse.Namespace) -> int:
+    """``--deploy``: the safety pipeline on a real robot's topics until Ctrl-C."""
+    from datetime import datetime
+
+    from safe_legged_c3bf.run.deploy import run_deploy
+
+    run_dir = (opts.out or Path("runs") / f"deploy-{datetime.now():%Y%m%d-%H%M%S}").resolve()
+    try:
+        if opts.domain_id is not None:
+            _isolate(opts)
+        domain = os.environ.get("ROS_DOMAIN_ID", "0")
+        print(f"bringup: deploy on ROS domain {domain}, run folder {run_dir}", flush=True)
+        return run_deploy(opts, run_dir)
+    except StartupError as err:
+        print(f"bringup: start-up failed: {err}", file=sys.stderr)
+        return EXIT_STARTUP
 
 
 if __name__ == "__main__":

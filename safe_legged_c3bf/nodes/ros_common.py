@@ -92,7 +92,13 @@ class SinglePublisher:
 
 
 def use_sim_time(node: Node, enabled: bool = True) -> None:
-    """Switch ``node`` to sim time from /clock (a no-op if the parameter is already set)."""
+    """Switch ``node`` to sim time from /clock, unless ``use_sim_time`` was set explicitly.
+
+    Every node of the simulated graph runs on sim time; a deployment on a real robot starts
+    the nodes with ``use_sim_time: false`` (a parameter override), which is kept.
+    """
+    if "use_sim_time" in getattr(node, "_parameter_overrides", {}):
+        return
     if node.has_parameter("use_sim_time"):
         node.set_parameters([Parameter("use_sim_time", Parameter.Type.BOOL, enabled)])
 

@@ -1,0 +1,112 @@
+"""Read an MCAP recording for a replay: the messages to play and the ground truth to score.
+
+Messages keep their serialized CDR bytes (played back byte for byte, stamps unchanged). Each
+gets the sim time of the newest ``/clock`` logged before it: that is when the replay
+publishes it. Ground truth for :mod:`.kpis` comes from ``/odom`` (robot pose) and
+``/ground_truth/obstacles`` (vertical obstacles: centre, velocity, larger semi-axis as radius).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from safe_legged_c3bf.interfaces import topics
+from safe_legged_c3bf.replay.kpis import GroundTruth
+
+#: What the replay publishes into the safety pipeline by default.
+PLAYED_TOPICS = (topics.CLOCK.name, topics.ODOM.name, topics.SCAN.name, topics.POINTS.name,
+                 topics.CMD_VEL.name)
+_TRUTH_TOPICS = (topics.ODOM.name, topics.GROUND_TRUTH_OBSTACLES.name)
+
+
+@dataclass
+class Recording:
+    """A recording ready to replay.
+
+    Attributes:
+        path: the MCAP file.
+        messages: (sim time s, topic, CDR bytes) in log order, played topics only.
+        truth: robot poses and true obstacles over sim time.
+        counts: messages per played topic.
+
+    """
+
+    path: Path
+    messages: list[tuple[float, str, bytes]]
+    truth: GroundTruth
+    counts: dict[str, int]
+
+    @property
+    def duration(self) -> float:
+        """Sim seconds from the first to the last played message."""
+        if not self.messages:
+            return 0.0
+        return self.messages[-1][0] - self.messages[0][0]
+
+
+class RecordingError(ValueError):
+    """The file is not a recording the replay can use (with the reason)."""
+
+
+def load_recording(path: str | Path, played: tuple[str, ...] = PLAYED_TOPICS) -> Recording:
+    """Read ``path`` (an MCAP file written by the bringup's ``--record``)."""
+    from mcap.exceptions import McapError
+    from mcap.reader import make_reader
+    from rclpy.serialization import deserialize_message
+
+    path = Path(path)
+    if not path.is_file():
+        raise RecordingError(f"{path}: no such file")
+    wanted = set(played) | set(_TRUTH_TOPICS)
+    classes = {name: topics.by_name(name).msg_class() for name in wanted}
+    clock = None
+    messages: list[tuple[float, str, bytes]] = []
+    poses: list[tuple[float, float, float, float]] = []
+    frames: list[tuple[float, np.ndarray]] = []
+    try:
+        with open(path, "rb") as stream:
+            for _schema, channel, message in make_reader(stream).iter_messages(
+                    topics=sorted(wanted), log_time_order=True):
+                name, data = channel.topic, bytes(message.data)
+                if name == topics.CLOCK.name:
+                    clock = _seconds(deserialize_message(data, classes[name]).clock)
+                if clock is None:
+                    continue  # nothing is played before the first /clock
+                if name == topics.ODOM.name:
+                    poses.append(_pose(deserialize_message(data, classes[name])))
+                elif name == topics.GROUND_TRUTH_OBSTACLES.name:
+                    msg = deserialize_message(data, classes[name])
+                    frames.append((_seconds(msg.header.stamp), _vertical(msg)))
+                if name in played:
+                    messages.append((clock, name, data))
+    except (McapError, OSError, ValueError) as err:
+        raise RecordingError(f"{path}: cannot read the recording: {err}") from None
+    if not messages:
+        raise RecordingError(f"{path}: no /clock or none of {', '.join(played)}")
+    counts = {name: sum(1 for _, n, _ in messages if n == name) for name in played}
+    pose = np.array(poses, float).reshape(-1, 4)
+    truth = GroundTruth(pose[:, 0], pose[:, 1:], np.array([f[0] for f in frames], float),
+                        [f[1] for f in frames])
+    return Recording(path, messages, truth, counts)
+
+
+def _seconds(stamp) -> float:  # noqa: ANN001 - builtin_interfaces/Time
+    return stamp.sec + stamp.nanosec * 1e-9
+
+
+def _pose(msg) -> tuple[float, float, float, float]:  # noqa: ANN001 - nav_msgs/Odometry
+    q = msg.pose.pose.orientation
+    yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+    p = msg.pose.pose.position
+    return _seconds(msg.header.stamp), p.x, p.y, yaw
+
+
+def _vertical(msg) -> np.ndarray:  # noqa: ANN001 - ObstacleArray
+    rows = [(o.center.x, o.center.y, o.velocity.x, o.velocity.y,
+             max(o.semi_axis_a, o.semi_axis_b))
+            for o in msg.obstacles if o.plane == o.VERTICAL]
+    return np.array(rows, float).reshape(-1, 5)
