@@ -96,6 +96,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="run the filter once per body model (filter.body_model: point, the "
                    "paper's single body point, and body, the whole body) on the same "
                    "scenarios and seeds, and tabulate them side by side")
+    p.add_argument("--perception", choices=("oracle", "sensors"),
+                   help="every run's perception: the simulator's oracle detections or the "
+                   "obstacle detector on simulated sensors (default: each scenario's own)")
+    p.add_argument("--compare-perception", action="store_true",
+                   help="run the filter once per perception source (oracle, sensors) on the "
+                   "same scenarios and seeds, and tabulate them side by side")
     p.add_argument("--duration", type=float, metavar="S",
                    help="override every scenario's duration (sim seconds)")
     p.add_argument("--combine", nargs="+", type=Path, metavar="DIR",
@@ -153,10 +159,15 @@ def main(argv: list[str] | None = None) -> int:
         print("evaluate: --compare-body-models: the installed safety filter has no "
               "'body_model' parameter (safe_legged_c3bf/safety/params.py)", file=sys.stderr)
         return EXIT_USAGE
+    if opts.compare_perception and opts.compare_body_models:
+        print("evaluate: --compare-perception and --compare-body-models: one comparison at a "
+              "time", file=sys.stderr)
+        return EXIT_USAGE
     if opts.dry_run:
         for s in specs:
             print(f"  {s.run_id}: {s.scenario} filter {'on' if s.filter_enabled else 'OFF'}"
                   f"{' body_model ' + s.body_model if s.body_model else ''}"
+                  f"{' perception ' + s.perception if s.perception else ''}"
                   f"{' seed ' + str(s.seed) if s.seed is not None else ''}")
         return EXIT_OK
     if not specs:

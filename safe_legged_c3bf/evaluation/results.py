@@ -41,8 +41,8 @@ __all__ = [  # metrics and figures are re-exported from their modules
 #: Columns of results.csv, in order.
 RUN_COLUMNS = (
     "run_id", "suite", "case", "scenario", "robot", "kind", "variant", "filter", "body_model",
-    "seed", "outcome", "failures", "goal_reached", "goal_time", "free_goal_time", "overhead_s",
-    "overhead_pct", "collision", "collision_count", "obstacles_touched", "fallen",
+    "perception", "seed", "outcome", "failures", "goal_reached", "goal_time", "free_goal_time",
+    "overhead_s", "overhead_pct", "collision", "collision_count", "obstacles_touched", "fallen",
     "impassable", "stopped_before_impassable", "creep", "unsurvivable", "unsurvivable_detail",
     "min_clearance", "min_clearance_obstacle", "final_goal_distance", "path_length",
     "intervention_share", "relaxed_share", "brake_share", "filter_cycles", "solve_median_ms",
@@ -147,7 +147,8 @@ SUMMARY_HEADERS = {
     "solve_p99_max_ms": "solve p99 max (ms)", "solve_max_ms": "solve max (ms)",
 }
 RUN_TABLE = (
-    ("run_id", "run"), ("filter", "filter"), ("body_model", "body"), ("outcome", "outcome"),
+    ("run_id", "run"), ("filter", "filter"), ("body_model", "body"),
+    ("perception", "perception"), ("outcome", "outcome"),
     ("failures", "flags"), ("goal_time", "goal (s)"), ("free_goal_time", "free goal (s)"),
     ("overhead_s", "overhead (s)"), ("min_clearance", "min clearance (m)"),
     ("min_clearance_obstacle", "closest"), ("intervention_share", "intervened"),
@@ -169,6 +170,22 @@ def _body_model_section(records: Sequence[dict[str, Any]]) -> list[str]:
         "(doc/evaluation.md); those are in `unsurvivable collided`.", "",
         markdown_table(aggregate(rows, ("robot", "body_model")), ["robot", "body_model", *keys],
                        ["robot", "filter body model", *(SUMMARY_HEADERS[k] for k in keys)]),
+        "",
+    ]
+
+
+def _perception_section(records: Sequence[dict[str, Any]]) -> list[str]:
+    """Oracle vs sensor perception (filter-on runs), when the campaign ran both, or nothing."""
+    rows = [r for r in records if r.get("filter") == "on" and r.get("variant") == "obstacles"]
+    if len({r.get("perception") or "oracle" for r in rows}) < 2:
+        return []
+    keys = list(BODY_MODEL_COLUMNS)
+    return [
+        "## Perception sources side by side (same scenarios and seeds)", "",
+        "`oracle`: the simulator's noisy true shapes; `sensors`: the obstacle detector on "
+        "the simulated LiDAR and 3-D sensor.", "",
+        markdown_table(aggregate(rows, ("robot", "perception")), ["robot", "perception", *keys],
+                       ["robot", "perception", *(SUMMARY_HEADERS[k] for k in keys)]),
         "",
     ]
 
@@ -216,6 +233,7 @@ def results_markdown(
              "min clearance (m)", "overhead (s)", "intervened", "solve p99 max (ms)"],
         ), "",
         *_body_model_section(records),
+        *_perception_section(records),
         "## Every run", "",
         markdown_table(sorted(records, key=lambda r: (r.get("case", ""), r.get("variant", ""),
                                                       r.get("filter", ""))),

@@ -95,6 +95,8 @@ class RunSpec:
         duration: ``--duration`` override in sim seconds (None: the scenario's).
         extra_args: further bringup arguments.
         body_model: the filter's ``body_model`` the scenario file sets ('' = its default).
+        perception: ``--perception`` of the bringup, 'oracle' or 'sensors' ('' = the
+            scenario's own).
 
     """
 
@@ -110,6 +112,7 @@ class RunSpec:
     duration: float | None = None
     extra_args: tuple[str, ...] = field(default_factory=tuple)
     body_model: str = ""
+    perception: str = ""
 
 
 def bringup_command(
@@ -132,6 +135,8 @@ def bringup_command(
         cmd += ["--seed", str(int(spec.seed))]
     if spec.duration is not None:
         cmd += ["--duration", f"{float(spec.duration):g}"]
+    if spec.perception:
+        cmd += ["--perception", spec.perception]
     cmd += list(spec.extra_args)
     return cmd
 
@@ -184,6 +189,7 @@ def record_from_report(
         "variant": base.get("variant", "obstacles"),
         "filter": "on" if base.get("filter_enabled", True) else "off",
         "body_model": base.get("body_model") or "",
+        "perception": summary.get("perception") or base.get("perception") or "oracle",
         "seed": base.get("seed"),
         "exit_code": exit_code,
         "timed_out": bool(timed_out),

@@ -173,6 +173,10 @@ def body_model_supported() -> bool:
     return "body_model" in getattr(FilterParams, "__dataclass_fields__", {})
 
 
+#: Perception sources compared by ``--compare-perception``.
+PERCEPTION_SOURCES = ("oracle", "sensors")
+
+
 def plan_runs(cases: list[Case], opts: argparse.Namespace, out: Path, suite: str) -> list:
     """RunSpecs (filter on, filter off, obstacle-free) of every case, in run order."""
     from safe_legged_c3bf.evaluation import random_scenario as rs
@@ -181,7 +185,13 @@ def plan_runs(cases: list[Case], opts: argparse.Namespace, out: Path, suite: str
     for c in cases:
         common = dict(case=c.case, robot=c.robot, kind=c.kind, suite=suite, seed=c.seed,
                       duration=opts.duration)
-        if getattr(opts, "compare_body_models", False):
+        perception = getattr(opts, "perception", None) or ""
+        common["perception"] = perception
+        if getattr(opts, "compare_perception", False):
+            for source in PERCEPTION_SOURCES:
+                specs.append(RunSpec(run_id=f"{c.case}__{source}", scenario=c.scenario,
+                                     filter_enabled=True, **{**common, "perception": source}))
+        elif getattr(opts, "compare_body_models", False):
             for model in BODY_MODELS:
                 path = write_body_model_variant(c.raw, model, out / "scenarios" / (
                     f"{c.case.replace('@', '_')}__{model}.yaml"))
