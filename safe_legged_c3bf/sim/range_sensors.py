@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import ClassVar
 
 import numpy as np
 import pybullet
@@ -199,8 +198,6 @@ class RangeSensor:
 
     """
 
-    kind: ClassVar[str] = "sensor"
-
     def __init__(
         self,
         client: int,
@@ -258,8 +255,7 @@ class RangeSensor:
         noise = self.rng.standard_normal(n)  # fixed draws per cast, whatever is hit
         drop = self.rng.random(n)
         self.casts += 1
-        with np.errstate(invalid="ignore"):
-            ranges = true + cfg.range_noise_std * noise
+        ranges = true + cfg.range_noise_std * noise  # +inf stays +inf
         ranges[ranges > cfg.range_max] = np.inf
         ranges[ranges < cfg.range_min] = -np.inf
         ranges[drop < cfg.dropout_probability] = np.nan
@@ -274,8 +270,6 @@ class Lidar2D(RangeSensor):
         angle_increment: angle between beams (rad).
 
     """
-
-    kind = "lidar"
 
     def __init__(
         self,
@@ -299,8 +293,6 @@ class Lidar2D(RangeSensor):
 
 class DepthSensor(RangeSensor):
     """A forward 3-D sensor (:class:`DepthConfig`); its cloud holds the valid returns."""
-
-    kind = "depth"
 
     def __init__(
         self,
