@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 
+import numpy as np
 import pytest
 from conftest import spin_until
 from geometry_msgs.msg import Twist
@@ -12,9 +14,11 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from message_samples import samples
 from rclpy.serialization import serialize_message
+from sensor_msgs.msg import LaserScan
 
 from safe_legged_c3bf.interfaces import topics
 from safe_legged_c3bf.nodes.ros_common import qos
+from safe_legged_c3bf.nodes.simulator.sensor_publisher import empty_cloud, fill_cloud
 from safe_legged_c3bf.run import msgdefs
 from safe_legged_c3bf.run.recorder import McapFile, RecorderNode
 
@@ -91,6 +95,32 @@ def test_every_contract_type_round_trips_through_mcap(tmp_path):
     obstacles = decoded["/obstacles"].obstacles
     assert [o.id for o in obstacles] == ["pillar_0", "pillar_1"]
     assert list(obstacles[1].velocity_covariance) == pytest.approx([k * 1e-2 for k in range(9)])
+
+
+def test_range_sensor_messages_round_trip_through_mcap(tmp_path):
+    text = msgdefs.rosbag2_definition(topics.POINTS.type)
+    assert text.count(f"{SEP}\nMSG: sensor_msgs/PointField\n") == 1
+    scan = LaserScan()
+    scan.header.frame_id = "lidar_link"
+    scan.header.stamp.sec, scan.header.stamp.nanosec = 3, 100_000_000
+    scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max = -3.1, 0.5, 0.1, 8.0
+    scan.ranges = [1.5, math.inf, -math.inf, math.nan, 7.25]
+    points = np.array([[1.0, 0.5, -0.25], [2.0, -0.75, 0.125]], dtype=np.float32)
+    cloud = fill_cloud(empty_cloud("depth_link"), points)
+    path = tmp_path / "sensors.mcap"
+    f = McapFile(path, (topics.SCAN, topics.POINTS))
+    f.write(topics.SCAN, serialize_message(scan), 1_000, 1_000)
+    f.write(topics.POINTS, serialize_message(cloud), 2_000, 2_000)
+    f.close()
+    decoded = {topic: msg for topic, _, msg in read_back(path)}
+    ranges = decoded["/scan"].ranges
+    assert ranges[0] == 1.5 and ranges[1] == math.inf and ranges[2] == -math.inf
+    assert math.isnan(ranges[3]) and ranges[4] == 7.25
+    assert decoded["/scan"].header.frame_id == "lidar_link"
+    back = decoded["/points"]
+    assert [f.name for f in back.fields] == ["x", "y", "z"] and back.point_step == 12
+    assert back.width == 2 and back.row_step == 24 and back.is_dense
+    assert np.array_equal(np.frombuffer(bytes(back.data), "<f4").reshape(-1, 3), points)
 
 
 def test_recorder_node_writes_what_is_published(ros_executor, tmp_path):

@@ -97,6 +97,10 @@ def test_node_publishes_state_and_consumes_commands(ros_executor, tmp_path):
     # Before any command: /clock and the state at t = 0 are published, physics holds.
     assert spin_until(ros_executor, lambda: got["clock"] and got["odom"] and got["joints"], 15)
     assert node.waiting_for_command and node.simulation.time == 0.0
+    # Oracle perception (the default): detections, no raw sensor data.
+    assert probe.node.count_publishers(topics.OBSTACLE_DETECTIONS.name) == 1
+    assert probe.node.count_publishers(topics.SCAN.name) == 0
+    assert probe.node.count_publishers(topics.POINTS.name) == 0
     assert all(from_time_msg(m.clock) == 0.0 for m in got["clock"])
     odom = got["odom"][-1]
     assert odom.header.frame_id == topics.ODOM_FRAME and odom.child_frame_id == topics.BASE_FRAME

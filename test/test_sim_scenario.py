@@ -9,6 +9,8 @@ import pytest
 import yaml
 
 from safe_legged_c3bf.sim.scenario import (
+    DepthConfig,
+    LidarConfig,
     Scenario,
     ScenarioError,
     available_scenarios,
@@ -100,6 +102,21 @@ def test_unknown_name_lists_known():
         ("perception.dropout_probability", 1.5, "perception.dropout_probability: must be <= 1"),
         ("perception.position_noise_std", [0.1, 0.1],
          "perception.position_noise_std: must be a number or a list of 3"),
+        ("perception.source", "radar", "perception.source: must be one of oracle, sensors"),
+        ("perception.lidar", {"range_min": 9.0},
+         "perception.lidar.range_min: must be less than range_max (8.0), got 9.0"),
+        ("perception.lidar", {"beams": 2.5}, "perception.lidar.beams: must be an integer"),
+        ("perception.lidar", {"beams": 0}, "perception.lidar.beams: must be an integer within"),
+        ("perception.lidar", {"fov": 7.0}, "perception.lidar.fov: must be an angle within"),
+        ("perception.lidar", {"beam": 90}, "perception.lidar.beam: unknown field (did you mean"),
+        ("perception.depth", {"vertical_fov": 3.2},
+         "perception.depth.vertical_fov: must be an angle within (0, pi)"),
+        ("perception.depth", {"columns": 640, "rows": 480},
+         "perception.depth.rows: columns x rows must be at most 65536"),
+        ("perception.depth", {"range_noise_std": -0.1},
+         "perception.depth.range_noise_std: must be >= 0"),
+        ("perception.depth", {"dropout_probability": 2}, "perception.depth.dropout_probability"),
+        ("perception.depth", [64, 48], "perception.depth: must be a mapping"),
         ("planner.mode", "teleport", "planner.mode: must be one of goal, constant_velocity"),
         ("filter", {"gamma": {"nested": 1}}, "filter.gamma: must be a number"),
         ("speling", 1, "speling: unknown field"),
@@ -115,6 +132,20 @@ def test_bad_fields_are_named(tmp_path, path, value, message):
     with pytest.raises(ScenarioError) as err:
         load_scenario(str(file))
     assert str(err.value).startswith(str(file.resolve())) and message in str(err.value)
+
+
+def test_perception_source_and_range_sensors():
+    sc = parse_scenario(_with("perception", {}))
+    assert sc.perception.source == "oracle"
+    assert sc.perception.lidar == LidarConfig() and sc.perception.depth == DepthConfig()
+    sc = parse_scenario(_with("perception", {
+        "source": "sensors", "lidar": {"beams": 180, "fov": 3.0, "range_max": 5.0},
+        "depth": {"columns": 32, "rows": 24, "range_noise_std": 0.0},
+    }))
+    assert sc.perception.source == "sensors"
+    assert sc.perception.lidar == LidarConfig(beams=180, fov=3.0, range_max=5.0)
+    assert sc.perception.depth == DepthConfig(columns=32, rows=24, range_noise_std=0.0)
+    assert LidarConfig().fov == pytest.approx(2 * math.pi) and DepthConfig().columns == 64
 
 
 def test_not_yaml(tmp_path):

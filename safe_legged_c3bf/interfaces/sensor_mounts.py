@@ -64,10 +64,12 @@ def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
 
 # A1: trunk collision box 0.267 x 0.194 x 0.114 m about the base origin (top at +0.057 m).
 # The LiDAR sits on the trunk's top near its front, 4 cm above it (its plane is above the legs
-# and the trunk itself); the 3-D sensor looks forward from the trunk's front face, level.
+# and the trunk itself); the 3-D sensor looks forward, level, from a head ahead of the front
+# hips: their collision cylinders span x 0.137-0.229 m, |y| 0.027-0.067 m, |z| < 0.046 m, and
+# a sensor on the trunk's front face (x = 0.145 m) between them had half its rays blocked.
 _A1_MOUNTS = (
     SensorMount(LIDAR_FRAME, (0.10, 0.0, 0.097)),
-    SensorMount(DEPTH_FRAME, (0.145, 0.0, 0.03)),
+    SensorMount(DEPTH_FRAME, (0.24, 0.0, 0.03)),
 )
 # Biped: torso box 0.3 m high centred 0.08 m above the base origin (top at +0.23 m). The
 # LiDAR on the torso top, the 3-D sensor on the chest looking forward and 20 deg down so

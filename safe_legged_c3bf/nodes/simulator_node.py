@@ -17,7 +17,10 @@ A thin wrapper around :class:`safe_legged_c3bf.sim.world.Simulation`, built from
   ``clock_rate``) state periods: 125 Hz for the requested 100 Hz at the A1's 250 Hz state
   rate, 100 Hz at the biped's 200 Hz; logged at start)
   (:mod:`~safe_legged_c3bf.nodes.simulator.state_publisher`), ``/obstacles/detections``
-  (noisy, no velocities), ``/ground_truth/safety`` and ``/ground_truth/obstacles``
+  (noisy, no velocities) with the scenario's ``perception.source: oracle`` or, with
+  ``sensors``, the range sensors' ``/scan`` and ``/points`` instead
+  (:mod:`~safe_legged_c3bf.nodes.simulator.sensor_publisher`; an obstacle detector node then
+  makes the detections), ``/ground_truth/safety`` and ``/ground_truth/obstacles``
   (:mod:`~safe_legged_c3bf.nodes.simulator.ground_truth_publisher`), and ``/diagnostics``
   (motor driver mode, rejected commands, lockstep timeouts; WARN while the drivers damp
   after a command timeout);
@@ -52,6 +55,7 @@ from safe_legged_c3bf.nodes.simulator.ground_truth_publisher import GroundTruthP
 from safe_legged_c3bf.nodes.simulator.parameters import LoopSettings
 from safe_legged_c3bf.nodes.simulator.physics_loop import PhysicsLoop
 from safe_legged_c3bf.nodes.simulator.quiet_publisher import quiet_publisher
+from safe_legged_c3bf.nodes.simulator.sensor_publisher import SensorPublisher
 from safe_legged_c3bf.nodes.simulator.state_publisher import StatePublisher
 from safe_legged_c3bf.sim.motor_driver import DriverMode
 from safe_legged_c3bf.sim.node_params import SimulatorParams
@@ -80,12 +84,16 @@ class SimulatorNode(Node):
             command_timeout=float(p.command_timeout),
             damping_kd=float(p.damping_kd),
         )
-        settings = LoopSettings.from_parameters(p, sim.scenario.perception.rate)
+        perception = sim.scenario.perception
+        settings = LoopSettings.from_parameters(p, perception)
         self._settings = settings
         self._summary_path = str(p.summary_path)
         self._exit_on_finish = bool(p.exit_on_finish)
         state = StatePublisher(self, sim, settings.clock_every, settings.odom_every)
-        detections = DetectionPublisher(self, sim, bool(p.strip_detection_ids))
+        # Oracle perception: detections; sensors: /scan and /points for a detector node.
+        sensors = SensorPublisher(self, sim) if perception.source == "sensors" else None
+        detections = None if sensors else DetectionPublisher(self, sim,
+                                                             bool(p.strip_detection_ids))
         truth = GroundTruthPublisher(self, sim)
         self._pub_diag = quiet_publisher(self, topics.DIAGNOSTICS)
         #: Held by the physics thread while it uses the world; hold it to use
@@ -97,7 +105,7 @@ class SimulatorNode(Node):
         self._video = self._open_video(p, physics_dt)
         self._loop = PhysicsLoop(
             self, sim, settings, self.lock,
-            state=state, truth=truth, detections=detections,
+            state=state, truth=truth, detections=detections, sensors=sensors,
             on_status=self._publish_diagnostics, on_finish=self._finish,
             on_period=self._flush_video if self._video is not None else None,
             cli_args=kwargs.get("cli_args"),
@@ -109,7 +117,7 @@ class SimulatorNode(Node):
         self.get_logger().info(
             f"scenario '{sim.scenario.name}' ({sim.scenario.robot.model}, "
             f"{len(sim.obstacles)} obstacles, {sim.scenario.duration:g} s), "
-            f"{settings.describe()}, real_time_factor "
+            f"perception from {perception.source}, {settings.describe()}, real_time_factor "
             f"{settings.real_time_factor:g}, lockstep {settings.lockstep}"
             + (", waiting for the first command" if settings.wait_for_first_command else "")
         )

@@ -2,8 +2,8 @@
 
 The summary is a JSON-ready dict: sim time (s), collisions and minimum robot-obstacle
 distance from the ground-truth monitor (m), falls, goal progress (m, odom x-y), the final
-``base_link`` position (m, odom) and the command and perception counters. Infinite values
-become None (JSON has no infinity).
+``base_link`` position (m, odom) and the command, perception and range-sensor counters.
+Infinite values become None (JSON has no infinity).
 """
 
 from __future__ import annotations
@@ -66,8 +66,11 @@ def run_summary(
         "driver_timeouts": sim.driver_timeouts,
         "driver_timeout_times": list(sim.driver_timeout_times),
         "driver_mode": sim.driver_mode.value,
+        "perception_source": sc.perception.source,
         "detection_frames": sim.perception.frames,
         "detections_dropped": sim.perception.dropped,
+        "lidar_scans": sim.lidar.casts,
+        "depth_clouds": sim.depth.casts,
     }
     if extra:
         out.update(extra)

@@ -23,10 +23,12 @@ from typing import Any
 import yaml
 
 from safe_legged_c3bf.run.config import config_path
+from safe_legged_c3bf.sim.range_sensors import DepthConfig, LidarConfig
 from safe_legged_c3bf.sim.robots import robot_spec
 from safe_legged_c3bf.sim.scenario_clearance import clearance_problems, filter_params
 from safe_legged_c3bf.sim.scenario_schema import (
     MOTION_TYPES,
+    PERCEPTION_SOURCES,
     PLANES,
     PLANNER_FIELDS,
     PLANNER_MODES,
@@ -40,9 +42,10 @@ FALL_DEFAULTS = {"quadruped": (0.12, 0.8), "biped": (0.45, 0.8)}
 #: Sections of parameter overrides for other nodes (the planner's are in ``planner:``).
 OVERRIDE_SECTIONS = ("filter", "tracker", "controller")
 __all__ = [
-    "FALL_DEFAULTS", "MOTION_TYPES", "OVERRIDE_SECTIONS", "PLANES", "PLANNER_MODES",
-    "WAYPOINT_MODES", "GoalConfig", "GroundTruthConfig", "MotionConfig", "ObstacleConfig",
-    "PerceptionConfig", "PhysicsConfig", "PlannerConfig", "RobotConfig", "Scenario",
+    "FALL_DEFAULTS", "MOTION_TYPES", "OVERRIDE_SECTIONS", "PERCEPTION_SOURCES", "PLANES",
+    "PLANNER_MODES", "WAYPOINT_MODES", "DepthConfig", "GoalConfig", "GroundTruthConfig",
+    "LidarConfig", "MotionConfig", "ObstacleConfig", "PerceptionConfig", "PhysicsConfig",
+    "PlannerConfig", "RobotConfig", "Scenario",
     "ScenarioError", "available_scenarios", "load_scenario", "parse_scenario",
     "resolve_scenario", "scenarios_dir",
 ]
@@ -92,22 +95,33 @@ class GoalConfig:
 class PerceptionConfig:
     """Simulated obstacle perception.
 
+    With ``source`` 'oracle' the simulator publishes detections drawn from the true obstacles
+    (the fields from ``rate`` to ``max_range``); with 'sensors' it publishes the raw data of
+    the range sensors ``lidar`` and ``depth`` instead, and an obstacle detector node makes the
+    detections.
+
     Attributes:
+        source: 'oracle' or 'sensors'.
         rate: detection rate (Hz, sim time).
         position_noise_std: (3,) standard deviation of the Gaussian centre noise, x y z (m).
         position_noise_bias: (3,) mean of the centre noise, x y z (m); 0 for an unbiased sensor.
         size_noise_std: standard deviation of the Gaussian semi-axis noise (m).
         dropout_probability: probability that an obstacle is missing from one detection frame.
         max_range: obstacles farther than this from the robot base are not seen (m).
+        lidar: the 2-D LiDAR (/scan), used with source 'sensors'.
+        depth: the forward 3-D sensor (/points), used with source 'sensors'.
 
     """
 
+    source: str = "oracle"
     rate: float = 20.0
     position_noise_std: tuple[float, float, float] = (0.02, 0.02, 0.02)
     position_noise_bias: tuple[float, float, float] = (0.0, 0.0, 0.0)
     size_noise_std: float = 0.0
     dropout_probability: float = 0.0
     max_range: float = math.inf
+    lidar: LidarConfig = field(default_factory=LidarConfig)
+    depth: DepthConfig = field(default_factory=DepthConfig)
 
 
 @dataclass(frozen=True)
@@ -280,8 +294,11 @@ def _build(doc: Any, name: str, source: str) -> Scenario:
     goal = GoalConfig(position=doc.goal.position or robot.position,
                       tolerance=doc.goal.tolerance)
     pe = doc.perception
-    perception = PerceptionConfig(pe.rate, pe.position_noise_std, pe.position_noise_bias,
-                                  pe.size_noise_std, pe.dropout_probability, pe.max_range)
+    perception = PerceptionConfig(
+        pe.source, pe.rate, pe.position_noise_std, pe.position_noise_bias, pe.size_noise_std,
+        pe.dropout_probability, pe.max_range, LidarConfig(**pe.lidar.model_dump()),
+        DepthConfig(**pe.depth.model_dump()),
+    )
     obstacles = []
     seen: set[str] = set()
     for i, o in enumerate(doc.obstacles):

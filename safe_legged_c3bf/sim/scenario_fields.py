@@ -82,6 +82,31 @@ def number(*, positive=False, minimum=None, maximum=None, allow_inf=False) -> Pl
     return PlainValidator(check)
 
 
+def angle_within(maximum: float, inclusive: bool, text: str) -> PlainValidator:
+    """An angle (rad) > 0 and <= ``maximum`` (< with ``inclusive`` False); ``text``: the range."""
+
+    def check(value: Any) -> float:
+        x = as_number(value)
+        if x is None or not x > 0 or x > maximum or (not inclusive and x == maximum):
+            fail(f"must be an angle within {text} (rad), got {value!r}")
+        return x
+
+    return PlainValidator(check)
+
+
+def integer_within(minimum: int, maximum: int) -> PlainValidator:
+    """An integer (not a bool, not a float) within [minimum, maximum]."""
+
+    def check(value: Any) -> int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            fail(f"must be an integer, got {value!r}")
+        if not minimum <= value <= maximum:
+            fail(f"must be an integer within [{minimum}, {maximum}], got {value!r}")
+        return int(value)
+
+    return PlainValidator(check)
+
+
 def non_negative_integer(value: Any) -> int:
     """An integer >= 0 (not a bool, not a float)."""
     if isinstance(value, bool) or not isinstance(value, int):
@@ -219,3 +244,4 @@ def override_value(name: str, default: Any, node: str, strict_double: bool) -> P
 Num = Annotated[float, number()]
 PosNum = Annotated[float, number(positive=True)]
 NonNeg = Annotated[float, number(minimum=0.0)]
+Probability = Annotated[float, number(minimum=0.0, maximum=1.0)]

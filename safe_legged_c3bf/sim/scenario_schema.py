@@ -25,6 +25,7 @@ from safe_legged_c3bf.sim.scenario_fields import (
 )
 from safe_legged_c3bf.sim.scenario_sections import (
     MOTION_TYPES,
+    PERCEPTION_SOURCES,
     PLANES,
     PLANNER_FIELDS,
     PLANNER_MODES,
@@ -40,8 +41,8 @@ from safe_legged_c3bf.sim.scenario_sections import (
 )
 
 __all__ = [  # re-exported from scenario_sections and scenario_errors
-    "MAX_LINES", "MOTION_TYPES", "PLANES", "PLANNER_FIELDS", "PLANNER_MODES", "WAYPOINT_MODES",
-    "format_errors", "scenario_model", "validate_document",
+    "MAX_LINES", "MOTION_TYPES", "PERCEPTION_SOURCES", "PLANES", "PLANNER_FIELDS",
+    "PLANNER_MODES", "WAYPOINT_MODES", "format_errors", "scenario_model", "validate_document",
 ]
 
 

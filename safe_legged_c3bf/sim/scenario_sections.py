@@ -30,15 +30,25 @@ from safe_legged_c3bf.interfaces.node_parameters import (
     override_parameter_defaults,
     override_refuses_integers,
 )
+from safe_legged_c3bf.sim.range_sensors import (
+    FULL_CIRCLE,
+    FULL_CIRCLE_TOLERANCE,
+    MAX_RAYS,
+    DepthConfig,
+    LidarConfig,
+)
 from safe_legged_c3bf.sim.robots import ROBOTS
 from safe_legged_c3bf.sim.scenario_fields import (
     NonNeg,
     Num,
     PosNum,
+    Probability,
+    angle_within,
     choice,
     fail,
     fail_missing,
     fail_unknown,
+    integer_within,
     number,
     obstacle_id,
     override_value,
@@ -51,6 +61,8 @@ PLANES = ("vertical", "horizontal")
 MOTION_TYPES = ("static", "constant_velocity", "waypoints")
 WAYPOINT_MODES = ("pingpong", "cycle", "stop")
 PLANNER_MODES = ("goal", "constant_velocity")
+#: Where the obstacle detections come from (``perception.source``).
+PERCEPTION_SOURCES = ("oracle", "sensors")
 #: Keys of the planner section that are the scenario's own, not planner node parameters.
 PLANNER_FIELDS = ("mode", "speed", "velocity")
 
@@ -98,15 +110,68 @@ class GoalSection(Section):
     tolerance: PosNum = 0.3
 
 
-class PerceptionSection(Section):
-    """``perception:``."""
+_LIDAR, _DEPTH = LidarConfig(), DepthConfig()
+_Rays = Annotated[int, integer_within(1, MAX_RAYS)]
+_HalfTurn = Annotated[float, angle_within(math.pi, False, "(0, pi)")]
 
+
+class _RangeSection(Section):
+    """What the two range sensors share: range_min < range_max (m)."""
+
+    @model_validator(mode="after")
+    def _range_order(self) -> _RangeSection:
+        low, high = self.range_min, self.range_max  # type: ignore[attr-defined]
+        if low >= high:
+            fail(f"must be less than range_max ({high!r}), got {low!r}", ".range_min")
+        return self
+
+
+class LidarSection(_RangeSection):
+    """``perception.lidar:`` (:class:`~safe_legged_c3bf.sim.range_sensors.LidarConfig`)."""
+
+    rate: PosNum = _LIDAR.rate
+    beams: _Rays = _LIDAR.beams
+    fov: Annotated[float, angle_within(
+        FULL_CIRCLE + FULL_CIRCLE_TOLERANCE, True, "(0, 2 pi]")] = _LIDAR.fov
+    range_min: NonNeg = _LIDAR.range_min
+    range_max: PosNum = _LIDAR.range_max
+    range_noise_std: NonNeg = _LIDAR.range_noise_std
+    dropout_probability: Probability = _LIDAR.dropout_probability
+
+
+class DepthSection(_RangeSection):
+    """``perception.depth:`` (:class:`~safe_legged_c3bf.sim.range_sensors.DepthConfig`)."""
+
+    rate: PosNum = _DEPTH.rate
+    columns: _Rays = _DEPTH.columns
+    rows: _Rays = _DEPTH.rows
+    horizontal_fov: _HalfTurn = _DEPTH.horizontal_fov
+    vertical_fov: _HalfTurn = _DEPTH.vertical_fov
+    range_min: NonNeg = _DEPTH.range_min
+    range_max: PosNum = _DEPTH.range_max
+    range_noise_std: NonNeg = _DEPTH.range_noise_std
+    dropout_probability: Probability = _DEPTH.dropout_probability
+
+    @model_validator(mode="after")
+    def _ray_count(self) -> DepthSection:
+        if self.columns * self.rows > MAX_RAYS:
+            fail(f"columns x rows must be at most {MAX_RAYS}, got {self.columns} x "
+                 f"{self.rows}", ".rows")
+        return self
+
+
+class PerceptionSection(Section):
+    """``perception:``; ``lidar`` and ``depth`` are used with ``source: sensors``."""
+
+    source: Annotated[str, choice(PERCEPTION_SOURCES)] = "oracle"
     rate: PosNum = 20.0
     position_noise_std: Annotated[tuple, scalar_or_xyz(non_negative=True)] = (0.02, 0.02, 0.02)
     position_noise_bias: Annotated[tuple, scalar_or_xyz()] = (0.0, 0.0, 0.0)
     size_noise_std: NonNeg = 0.0
-    dropout_probability: Annotated[float, number(minimum=0.0, maximum=1.0)] = 0.0
+    dropout_probability: Probability = 0.0
     max_range: Annotated[float, number(positive=True, allow_inf=True)] = math.inf
+    lidar: LidarSection = Field(default_factory=LidarSection)
+    depth: DepthSection = Field(default_factory=DepthSection)
 
 
 _MOTION_KEYS = {

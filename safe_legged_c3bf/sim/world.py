@@ -3,15 +3,16 @@
 :class:`Simulation` loads a scenario (ground plane, robot in its standing posture, obstacles),
 advances physics in fixed steps with the emulated motor drivers applying the latest joint
 command at every step, and exposes the robot state, the true obstacle states, noisy
-detections, ground truth (contacts, minimum distance, collisions, falls), a run summary and
-follow-camera frames.
+detections, LiDAR scans and 3-D point clouds (:mod:`.range_sensors`), ground truth (contacts,
+minimum distance, collisions, falls), a run summary and follow-camera frames.
 
 Determinism: for a given scenario, seed, physics step and sequence of (step index, command)
 pairs, every output is identical from run to run (PyBullet is deterministic on one machine
 with ``deterministicOverlappingPairs``; obstacle motion is a pure function of time; the
 perception noise comes from a generator seeded by the scenario seed and consumes a fixed
-number of draws per frame). What is *not* deterministic is anything that depends on wall
-clock, e.g. when a ROS node applies commands relative to physics steps outside lockstep mode.
+number of draws per frame, and so does each range sensor's). What is *not* deterministic is
+anything that depends on wall clock, e.g. when a ROS node applies commands relative to
+physics steps outside lockstep mode.
 
 Typical use::
 
@@ -39,6 +40,7 @@ from numpy.typing import ArrayLike
 from safe_legged_c3bf.interfaces.base_state import BaseState
 from safe_legged_c3bf.interfaces.joint_command import JointCommand
 from safe_legged_c3bf.interfaces.rotations import rotate_inverse
+from safe_legged_c3bf.interfaces.sensor_mounts import DEPTH_FRAME, LIDAR_FRAME, default_mounts
 from safe_legged_c3bf.sim.camera import CameraConfig, FollowCamera
 from safe_legged_c3bf.sim.goal_progress import GoalProgress
 from safe_legged_c3bf.sim.ground_truth import GroundTruthMonitor, GroundTruthSample
@@ -46,6 +48,7 @@ from safe_legged_c3bf.sim.motor_driver import DriverMode, MotorDriver
 from safe_legged_c3bf.sim.obstacle_sync import ObstacleSync
 from safe_legged_c3bf.sim.obstacles import KinematicObstacle, ObstacleState
 from safe_legged_c3bf.sim.perception import PerceptionModel
+from safe_legged_c3bf.sim.range_sensors import DepthSensor, Lidar2D
 from safe_legged_c3bf.sim.robots import load_robot
 from safe_legged_c3bf.sim.run_summary import run_summary, write_json
 from safe_legged_c3bf.sim.scenario import Scenario, load_scenario
@@ -158,8 +161,14 @@ class Simulation:
         self.monitor = GroundTruthMonitor(
             c, self.robot, self.obstacles, sc.ground_truth, self.physics_dt
         )
-        (perception_seed,) = np.random.SeedSequence(self.seed).spawn(1)
+        seeds = np.random.SeedSequence(self.seed)
+        (perception_seed,) = seeds.spawn(1)
         self.perception = PerceptionModel(sc.perception, perception_seed)
+        lidar_seed, depth_seed = seeds.spawn(2)  # after the perception's: its stream is kept
+        mounts = default_mounts(self.robot.spec.kind)
+        body = self.robot.body_id
+        self.lidar = Lidar2D(c, sc.perception.lidar, mounts[LIDAR_FRAME], lidar_seed, body)
+        self.depth = DepthSensor(c, sc.perception.depth, mounts[DEPTH_FRAME], depth_seed, body)
         self._step = 0
         self._driver_mode = DriverMode.WAITING
         self.driver_timeouts = 0
@@ -345,6 +354,20 @@ class Simulation:
         return self.perception.detect(
             self.obstacles, self.obstacle_states(), np.asarray(pos), include_ids
         )
+
+    def lidar_scan(self) -> np.ndarray:
+        """One LiDAR scan now: (beams,) float32 ranges (m, REP-117; :attr:`lidar`'s angles)."""
+        return self.lidar.scan(*self._base_link_pose())
+
+    def depth_cloud(self) -> np.ndarray:
+        """One 3-D cast now: (m, 3) float32 points of the valid returns (m, depth_link)."""
+        return self.depth.cloud(*self._base_link_pose())
+
+    def _base_link_pose(self) -> tuple[tuple[float, ...], tuple[float, ...]]:
+        com, com_quat = pybullet.getBasePositionAndOrientation(
+            self.robot.body_id, physicsClientId=self.client
+        )
+        return self._link_pose(com, com_quat)
 
     # ------------------------------------------------------------------ camera
 

@@ -7,7 +7,8 @@
 * :mod:`.state_publisher`: /clock, /odom, /imu, /joint_states (:mod:`.cdr_template`);
 * :mod:`.ground_truth_publisher`, :mod:`.detection_publisher`, :mod:`.obstacle_msgs`:
   /ground_truth/*, /obstacles/detections and their obstacle messages;
+* :mod:`.sensor_publisher`: /scan and /points of the simulated range sensors;
 * :mod:`.quiet_publisher`: publishers without QoS event handlers.
 
-The ROS-free models stay in :mod:`safe_legged_c3bf.sim` (world, perception, IMU).
+The ROS-free models stay in :mod:`safe_legged_c3bf.sim` (world, perception, range sensors, IMU).
 """

@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from safe_legged_c3bf.sim.node_params import SimulatorParams
+from safe_legged_c3bf.sim.scenario import PerceptionConfig
 
 
 @dataclass(frozen=True)
@@ -26,7 +27,9 @@ class LoopSettings:
     clock_every: int  #: /clock (a multiple of state_every)
     odom_every: int  #: /odom (a multiple of state_every)
     ground_truth_every: int  #: /ground_truth/*
-    detection_every: int  #: /obstacles/detections
+    detection_every: int  #: /obstacles/detections (0: not published, perception from sensors)
+    scan_every: int  #: /scan (0: not published, oracle perception)
+    points_every: int  #: /points (0: not published, oracle perception)
     real_time_factor: float  #: sim s per wall s; 0 = as fast as possible
     max_lag: float  #: wall s behind the schedule before pacing stops catching up
     lockstep: bool
@@ -34,19 +37,30 @@ class LoopSettings:
     wait_for_first_command: bool
 
     @classmethod
-    def from_parameters(cls, p: SimulatorParams, perception_rate: float) -> LoopSettings:
-        """From the node's parameters; ``perception_rate``: the scenario's (Hz, sim time)."""
+    def from_parameters(cls, p: SimulatorParams, perception: PerceptionConfig) -> LoopSettings:
+        """From the node's parameters and the scenario's perception (rates: Hz, sim time).
+
+        Oracle perception publishes detections at the node's ``detection_rate`` (0: the
+        scenario's); sensor perception publishes /scan and /points at the sensors' rates.
+        """
         rate = float(p.physics_rate)
         state_rate = float(p.state_rate)
-        detection_rate = float(p.detection_rate) or perception_rate
+        detection_rate = float(p.detection_rate) or perception.rate
         state_every = max(1, round(rate / state_rate))
+        sensors = perception.source == "sensors"
+
+        def every(hz: float, on: bool) -> int:
+            return max(1, round(rate / hz)) if on else 0
+
         return cls(
             physics_rate=rate,
             state_every=state_every,
             clock_every=max(state_every, state_every * round(state_rate / float(p.clock_rate))),
             odom_every=max(state_every, state_every * round(state_rate / float(p.odom_rate))),
             ground_truth_every=max(1, round(rate / float(p.ground_truth_rate))),
-            detection_every=max(1, round(rate / detection_rate)),
+            detection_every=every(detection_rate, not sensors),
+            scan_every=every(perception.lidar.rate, sensors),
+            points_every=every(perception.depth.rate, sensors),
             real_time_factor=float(p.real_time_factor),
             max_lag=float(p.max_lag),
             lockstep=bool(p.lockstep),
@@ -55,10 +69,14 @@ class LoopSettings:
         )
 
     def describe(self) -> str:
-        """The rates for the start-up log line: physics, state, /odom and /clock (Hz)."""
+        """The rates for the start-up log line: physics, state, /odom, /clock, sensors (Hz)."""
         rate = self.physics_rate
-        return (
+        text = (
             f"physics {rate:g} Hz, state every {self.state_every} steps "
             f"({rate / self.state_every:g} Hz; /odom {rate / self.odom_every:g} Hz, "
             f"/clock {rate / self.clock_every:g} Hz)"
         )
+        if self.scan_every:
+            text += (f", /scan {rate / self.scan_every:g} Hz, /points "
+                     f"{rate / self.points_every:g} Hz")
+        return text

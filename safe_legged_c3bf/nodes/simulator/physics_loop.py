@@ -23,10 +23,11 @@ counted (:attr:`PhysicsLoop.stale_commands`). If no command arrives within
 What is deterministic: a lockstep run with no lockstep timeouts, deterministic controllers
 that send one command per state, and the same scenario, seed and parameters is reproducible
 bit for bit (physics, obstacle motion, perception noise and drop-outs drawn at fixed sim
-times, ground truth). What is not: outside lockstep, when a command takes effect relative to
-the physics steps depends on process scheduling and DDS latency, so the robot's motion is not
-reproducible (the obstacle motion and the sequence of perception noise draws still are); the
-wall times are never reproducible.
+times, the range sensors' casts at fixed sim steps, ground truth). What is not: outside
+lockstep, when a command takes effect relative to the physics steps depends on process
+scheduling and DDS latency, so the robot's motion is not reproducible (the obstacle motion
+and the sequence of perception noise draws still are); the wall times are never
+reproducible.
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ from safe_legged_c3bf.nodes.simulator.command_bus import CommandBus
 from safe_legged_c3bf.nodes.simulator.detection_publisher import DetectionPublisher
 from safe_legged_c3bf.nodes.simulator.ground_truth_publisher import GroundTruthPublisher
 from safe_legged_c3bf.nodes.simulator.parameters import LoopSettings
+from safe_legged_c3bf.nodes.simulator.sensor_publisher import SensorPublisher
 from safe_legged_c3bf.nodes.simulator.state_publisher import StatePublisher
 from safe_legged_c3bf.sim.motor_driver import DriverMode
 from safe_legged_c3bf.sim.world import Simulation
@@ -60,6 +62,8 @@ def _stamp_ns(stamp: Any) -> int:
 class PhysicsLoop:
     """Steps the world in its own thread and publishes at the step intervals of ``settings``.
 
+    Publishes the state, ground truth and either the detections (oracle perception) or the
+    range sensors' data (sensor perception), each after the physics step its interval ends on.
     Calls back from the physics thread, with ``lock`` held: ``on_period()`` after every
     state period (None: nothing to do), ``on_status()`` when the status shown in /diagnostics
     changes (driver mode; an error, without the lock), ``on_finish()`` once when the
@@ -75,7 +79,8 @@ class PhysicsLoop:
         *,
         state: StatePublisher,
         truth: GroundTruthPublisher,
-        detections: DetectionPublisher,
+        detections: DetectionPublisher | None,
+        sensors: SensorPublisher | None = None,
         on_status: Callable[[], None],
         on_finish: Callable[[], None],
         on_period: Callable[[], None] | None = None,
@@ -85,13 +90,18 @@ class PhysicsLoop:
         self._sim, self._lock = sim, lock
         self._logger, self._context = node.get_logger(), node.context
         self._state_every = settings.state_every
-        self._gt_every = settings.ground_truth_every
-        self._det_every = settings.detection_every
         self._rtf, self._max_lag = settings.real_time_factor, settings.max_lag
         self._lockstep, self._lockstep_timeout = settings.lockstep, settings.lockstep_timeout
         self._publish_state = state.publish
         self._publish_ground_truth = truth.publish
-        self._publish_detections = detections.publish
+        #: (interval in physics steps, publish) of everything published between states.
+        self._periodic = [(settings.ground_truth_every, truth.publish)]
+        if detections is not None and settings.detection_every:
+            self._periodic.append((settings.detection_every, detections.publish))
+        if sensors is not None and settings.scan_every:
+            self._periodic.append((settings.scan_every, sensors.publish_scan))
+        if sensors is not None and settings.points_every:
+            self._periodic.append((settings.points_every, sensors.publish_points))
         self._on_status, self._on_finish, self._on_period = on_status, on_finish, on_period
         self._bus = CommandBus(node, self._take_command, cli_args)
         self._drain_commands = self._bus.drain
@@ -289,10 +299,9 @@ class PhysicsLoop:
             at_boundary = k % self._state_every == 0
             if at_boundary:
                 self._last_state_stamp = self._publish_state(self._waiting)
-            if k % self._gt_every == 0:
-                self._publish_ground_truth()
-            if k % self._det_every == 0:
-                self._publish_detections()
+            for every, publish in self._periodic:
+                if k % every == 0:
+                    publish()
             if sim.finished:
                 self._finish()
                 return
