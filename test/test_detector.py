@@ -259,3 +259,15 @@ def test_config_errors_name_the_parameter():
         DetectorConfig(voxel_size=0.3, cluster_tolerance=0.2)
     with pytest.raises(ValueError, match="^tilt_noise"):
         DetectorConfig(tilt_noise=0.5)
+
+
+def test_wall_pieces_stay_put_while_the_robot_moves_along_the_wall():
+    # Longer than the sensors' range: the part seen moves with the robot.
+    wall = Box(2.5, 0.0, length=0.2, width=30.0, height=1.0)  # face at x = 2.4
+    before = vertical(detect([wall], pose=Pose(y=0.0)))
+    after = vertical(detect([wall], pose=Pose(x=0.3, y=0.45)))
+    inner = [o for o in after if abs(o.center[1] - 0.45) < 1.0]  # away from the view's edges
+    assert len(inner) >= 3
+    for o in inner:
+        nearest = min(np.hypot(*(p.center[:2] - o.center[:2])) for p in before)
+        assert nearest < 0.02, o.center

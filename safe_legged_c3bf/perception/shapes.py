@@ -13,8 +13,9 @@ the far side:
   mirrored about the plane through their farthest point across the viewing direction (the
   object is assumed as deep as twice what is seen of it), then the enclosing ellipse of the
   principal-axes bounding box is taken (the box's ellipse scaled until every point is in).
-* **Vertical, elongated** (walls, benches): split along the major axis into equal pieces of
-  at most ``max_piece_length`` (recursively, so that an L-shaped wall follows its legs); each
+* **Vertical, elongated** (walls, benches): split along the major axis into pieces of at
+  most ``max_piece_length``, cut at its multiples from the odom origin so that the pieces
+  stay put from frame to frame (recursively, so that an L-shaped wall follows its legs); each
   piece is the enclosing ellipse of the box that spans its whole interval along the cut axis
   (consecutive pieces meet even where the returns are sparse) and its points across it,
   without mirroring (the depth of a wall behind its face is unknown; the face is what the
@@ -211,24 +212,32 @@ class Piece:
 def split_pieces(xy: np.ndarray, max_length: float, depth: int = 0) -> list[Piece]:
     """Pieces at most ``max_length`` (m) long along the major axis, cut recursively.
 
-    The cluster is cut into ``ceil(length / max_length)`` equal intervals along its major
-    axis; a piece that is still longer along its own major axis (a corner) is cut again.
+    The first cut is at the multiples of ``max_length`` along the major axis, measured from
+    the odom origin: as the robot walks along a wall and sees more or less of it, only the
+    end pieces change, so the tracker keeps its tracks of the others. A piece that is still
+    longer along its own major axis (a corner) is cut again into equal parts.
     """
     n = xy.shape[0]
     axis = _principal_axes(xy)[:, 0]
     s = xy @ axis
-    lo, length = (float(s.min()), float(s.max() - s.min())) if n else (0.0, 0.0)
-    if n < 2 or length <= max_length or depth >= MAX_SPLIT_DEPTH:
-        return [Piece(np.arange(n), axis, lo, lo + length)]
-    k = math.ceil(length / max_length)
-    step = length / k
-    which = np.minimum(((s - lo) / step).astype(np.int64), k - 1)
+    lo, hi = (float(s.min()), float(s.max())) if n else (0.0, 0.0)
+    if n < 2 or hi - lo <= max_length or depth >= MAX_SPLIT_DEPTH:
+        return [Piece(np.arange(n), axis, lo, hi)]
+    if depth == 0:
+        cell = np.floor(s / max_length).astype(np.int64)
+        which = cell - cell.min()
+        edges = (cell.min() + np.arange(which.max() + 2)) * max_length
+        edges = np.clip(edges, lo, hi)
+    else:
+        k = math.ceil((hi - lo) / max_length)
+        which = np.minimum(((s - lo) / ((hi - lo) / k)).astype(np.int64), k - 1)
+        edges = np.linspace(lo, hi, k + 1)
     out: list[Piece] = []
     for j in np.unique(which):  # a few pieces, each handled whole
         members = np.flatnonzero(which == j)
         sub = split_pieces(xy[members], max_length, depth + 1)
         if len(sub) == 1:
-            out.append(Piece(members, axis, lo + j * step, lo + (j + 1) * step))
+            out.append(Piece(members, axis, float(edges[j]), float(edges[j + 1])))
         else:
             out.extend(Piece(members[p.index], p.axis, p.low, p.high) for p in sub)
     return out
