@@ -18,6 +18,8 @@ from safe_legged_c3bf.interfaces import topics
 from safe_legged_c3bf.interfaces.sensor_mounts import DEPTH_FRAME, LIDAR_FRAME, default_mounts
 from safe_legged_c3bf.nodes import ros_common
 from safe_legged_c3bf.nodes.obstacle_detector_node import ObstacleDetectorNode
+from safe_legged_c3bf.nodes.obstacle_tracker_node import detections_from_msg
+from safe_legged_c3bf.perception import TrackerConfig, validate_detection
 from safe_legged_c3bf_msgs.msg import Obstacle, ObstacleArray
 
 START = 20.0
@@ -147,6 +149,10 @@ def test_scan_cloud_and_odom_in_detections_in_odom_out(ros_executor):
         assert o.id == "" and o.velocity_source == Obstacle.VELOCITY_UNKNOWN
         assert (o.velocity.x, o.velocity.y, o.velocity.z) == (0.0, 0.0, 0.0)
         assert np.all(np.isfinite(o.position_covariance))
+    tracker = TrackerConfig()  # the tracker takes every detection as it comes
+    for d in detections_from_msg(msg):
+        assert validate_detection(d, frame_id=tracker.frame_id, max_range=tracker.max_range,
+                                  max_semi_axis=tracker.max_semi_axis) is None
 
     # Published at the scan rate: each new scan is one message, fused with the latest cloud.
     t += STEP
