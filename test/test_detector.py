@@ -179,6 +179,19 @@ def test_a_bar_on_posts_is_a_bar_between_two_posts():
     assert all(abs(o.center[1]) - o.semi_axes[0] > 0.5 for o in posts)
 
 
+def test_a_pillar_joined_to_a_bar_outside_the_cloud_s_view_stays_vertical():
+    # The scan plane cuts the bar and, beyond the 3-D sensor's side of view, a pillar that
+    # touches it: the pillar is not swallowed by the bar.
+    scene = [Bar(2.0, z=0.35, radius=0.05, y0=-3.0, y1=3.0), Pillar(1.8, 1.8, 0.2)]
+    report = detect(scene)
+    [bar] = [o for o in horizontal(report) if abs(o.center[1]) < 1.0]
+    assert bar.semi_axes[0] < 0.1
+    pillar = [o for o in vertical(report) if math.hypot(o.center[0] - 1.8, o.center[1] - 1.8)
+              < 0.05]
+    assert len(pillar) == 1
+    assert all(abs(o.center[1]) > 1.5 for o in vertical(report))
+
+
 def test_something_only_the_lidar_sees_is_vertical():
     # A bar behind the robot: outside the 3-D sensor's view; the scan plane cuts it. Its
     # height is unknown, so it is reported as standing (safe; it is not on the path ahead).

@@ -17,7 +17,8 @@ One frame, in order:
    **HORIZONTAL** only if the 3-D cloud saw part of it *and* at least
    ``min_free_space_rays`` cloud rays pass beneath it and end beyond it. Otherwise it joins
    the vertical points: something seen only by the 2-D LiDAR (outside the 3-D sensor's view)
-   is VERTICAL, as is anything whose foot is merely out of view.
+   is VERTICAL, as is anything whose foot is merely out of view. Scan returns of a
+   horizontal cluster outside the cloud's view stay with it only on the bar's line.
 3. **Clusters and shapes** (``clustering.py``, ``shapes.py``): the vertical points are
    clustered on x-y (a vertical obstacle is extruded along z: what a bar's shadow splits
    into an upper and a lower part of a pillar is one pillar) and each cluster becomes a
@@ -42,7 +43,12 @@ import numpy as np
 
 from safe_legged_c3bf.perception.clustering import cluster_labels, scan_links
 from safe_legged_c3bf.perception.detector_config import DetectorConfig
-from safe_legged_c3bf.perception.free_space import grounded_mask, rays_beneath, underside
+from safe_legged_c3bf.perception.free_space import (
+    covered_by_cloud,
+    grounded_mask,
+    rays_beneath,
+    underside,
+)
 from safe_legged_c3bf.perception.ground import split_by_height
 from safe_legged_c3bf.perception.sensor_frame import SensorFrame
 from safe_legged_c3bf.perception.shapes import DetectedObstacle, fit_horizontal, fit_vertical
@@ -182,6 +188,10 @@ class ObstacleDetector:
             members = floating[labels == k]
             if not np.any(cand.from_cloud[members]):
                 continue  # seen by the scan alone: its height is unknown, it stays vertical
+            members = members[covered_by_cloud(
+                cand.points[members], cand.from_cloud[members], cloud.origin,
+                self.config.free_space_margin,
+            )]
             free = rays_beneath(cand.points[members], cloud.origin, cloud.points, self.config)
             if free.rays >= self.config.min_free_space_rays:
                 overhead[members] = True

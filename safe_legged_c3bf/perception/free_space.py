@@ -14,6 +14,10 @@ Two tests tell a bar the robot may duck under from something standing on the gro
   below its underside, and end beyond it (they hit the ground or something farther). The
   rays beneath a pillar whose foot is out of view do not exist (the foot is where the view
   ends), and rays beneath something behind a low box end on the box.
+* **What the cloud vouches for** (:func:`covered_by_cloud`). A floating cluster may hold
+  scan returns outside the 3-D sensor's view (the LiDAR sees a bar beyond the cloud's
+  sides). They stay with the bar when they lie on its line; anything else joined to it out
+  there (a pillar the bar passes) is something only the LiDAR sees, and stays VERTICAL.
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ import numpy as np
 
 from safe_legged_c3bf.perception.detector_config import DetectorConfig
 
-__all__ = ["FreeSpace", "grounded_mask", "rays_beneath", "underside"]
+__all__ = ["FreeSpace", "covered_by_cloud", "grounded_mask", "rays_beneath", "underside"]
 
 
 def _column_min(points: np.ndarray, cell: float) -> np.ndarray:
@@ -153,3 +157,37 @@ def underside(
     d = float(np.hypot(*(c[low, :2] - np.asarray(origin, dtype=float)[:2])))
     estimate = float(c[low, 2]) - d * math.tan(config.cloud_row_spacing)
     return max(estimate, free.clear_height) if math.isfinite(free.clear_height) else estimate
+
+
+def covered_by_cloud(
+    points: np.ndarray, from_cloud: np.ndarray, origin: np.ndarray, tolerance: float
+) -> np.ndarray:
+    """(k,) True for the members of a floating cluster its 3-D sensor evidence covers.
+
+    Cloud returns are covered, and so are scan returns within the azimuth span (about the
+    cloud's ``origin``) of the cluster's cloud returns. A scan return outside that span is
+    covered when it lies within ``tolerance`` (m, x-y) of the line through the scan returns
+    inside the span (or, without two of them, through the cloud returns): the rest of a bar
+    seen only in the scan plane.
+    """
+    p = np.asarray(points, dtype=float).reshape(-1, 3)
+    cloud = np.asarray(from_cloud, dtype=bool)
+    covered = cloud.copy()
+    if covered.all() or not covered.any():
+        return covered
+    rel = p[:, :2] - np.asarray(origin, dtype=float)[:2]
+    azimuth = np.arctan2(rel[:, 1], rel[:, 0])
+    ref = np.arctan2(np.sin(azimuth[cloud]).mean(), np.cos(azimuth[cloud]).mean())
+    angle = _wrap(azimuth - ref)
+    inside = (angle >= angle[cloud].min()) & (angle <= angle[cloud].max())
+    covered |= inside
+    reference = p[inside & ~cloud] if np.count_nonzero(inside & ~cloud) >= 2 else p[cloud]
+    xy = reference[:, :2]
+    mean = xy.mean(axis=0)
+    if xy.shape[0] >= 2:
+        _, vectors = np.linalg.eigh(np.cov((xy - mean).T))
+        normal = vectors[:, 0]  # across the line (the smaller spread)
+    else:
+        normal = np.array([1.0, 0.0])  # a bar along odom y
+    on_line = np.abs((p[:, :2] - mean) @ normal) <= tolerance
+    return covered | (~inside & on_line)
