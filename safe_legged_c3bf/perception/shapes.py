@@ -153,6 +153,23 @@ def fit_circle(xy: np.ndarray, viewpoint: np.ndarray, config: DetectorConfig) ->
     return Ellipse2D(mean + c, (r, r), 0.0, cov + floor)
 
 
+@dataclass(frozen=True)
+class Piece:
+    """Part of an elongated cluster: its points and its interval along an axis.
+
+    Attributes:
+        index: indices of the piece's points in the cluster.
+        axis: (2,) unit axis along which the cluster was cut (x-y).
+        low, high: the piece's interval along ``axis`` (m, as ``xy @ axis``).
+
+    """
+
+    index: np.ndarray
+    axis: np.ndarray
+    low: float
+    high: float
+
+
 def enclosing_ellipse(
     xy: np.ndarray,
     config: DetectorConfig,
@@ -190,23 +207,6 @@ def enclosing_ellipse(
     spread = np.cov(xy.T) / n if n > 1 else np.zeros((2, 2))
     cov = spread + extra + config.position_std**2 * np.eye(2)
     return Ellipse2D(axes @ mid, (float(a), float(b)), _wrap_half(orientation), cov)
-
-
-@dataclass(frozen=True)
-class Piece:
-    """Part of an elongated cluster: its points and its interval along an axis.
-
-    Attributes:
-        index: indices of the piece's points in the cluster.
-        axis: (2,) unit axis along which the cluster was cut (x-y).
-        low, high: the piece's interval along ``axis`` (m, as ``xy @ axis``).
-
-    """
-
-    index: np.ndarray
-    axis: np.ndarray
-    low: float
-    high: float
 
 
 def split_pieces(xy: np.ndarray, max_length: float, depth: int = 0) -> list[Piece]:
