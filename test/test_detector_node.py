@@ -167,6 +167,16 @@ def test_scan_cloud_and_odom_in_detections_in_odom_out(ros_executor):
     assert len(h.received(3)) == 3 and h.node.fused == 2
     assert h.node.rejected == {}
 
+    def warned():
+        for arr in reversed(h.diagnostics):
+            for status in arr.status:
+                if status.name == "obstacle_detector":
+                    return "scan alone" in status.message
+        return False
+
+    h.clock(t + 0.25)  # the diagnostics timer runs on sim time
+    assert spin_until(ros_executor, warned, 5.0)
+
 
 def test_bad_inputs_are_dropped_with_a_diagnostic(ros_executor):
     h = Harness(ros_executor, sensors="both")

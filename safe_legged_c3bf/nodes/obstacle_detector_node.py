@@ -81,6 +81,7 @@ class ObstacleDetectorNode(Node):
         self.rejected: Counter[str] = Counter()  # "<topic>_<reason>" -> messages
         self._reported_rejections = 0
         self.scans = self.clouds = self.published = self.fused = 0
+        self._last_fused = False
         self.last_report: DetectionReport | None = None
         self._detect_ms: deque[float] = deque(maxlen=TIMING_WINDOW)
 
@@ -240,7 +241,8 @@ class ObstacleDetectorNode(Node):
             self.get_logger().error(f"detection failed: {err!r}", throttle_duration_sec=2.0)
             return
         self._detect_ms.append(1e3 * (time.perf_counter() - start))
-        self.fused += int(scan is not None and cloud is not None)
+        self._last_fused = scan is not None and cloud is not None
+        self.fused += int(self._last_fused)
         self.last_report = report
         msg = ObstacleArray()
         msg.header.stamp = ros_common.to_time_msg(stamp)
@@ -263,6 +265,11 @@ class ObstacleDetectorNode(Node):
             level, text = "warn", f"waiting for {'/points' if p.sensors == 'cloud' else '/scan'}"
         elif new:
             level, text = "warn", f"detecting; {new} message(s) dropped recently"
+        elif p.sensors == "both" and not self._last_fused:
+            level, text = "warn", (
+                "detecting from the scan alone: no /points within cloud_max_age (overhead "
+                "obstacles the scan plane cuts are reported as vertical)"
+            )
         else:
             level, text = "ok", "detecting"
         report = self.last_report or DetectionReport()
