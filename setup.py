@@ -54,6 +54,7 @@ def _data_files():
 NODES = {
     "simulator": "simulator_node",
     "obstacle_tracker": "obstacle_tracker_node",
+    "obstacle_detector": "obstacle_detector_node",
     "reference_planner": "reference_planner_node",
     "safety_filter": "safety_filter_node",
     "gait_controller": "gait_controller_node",

@@ -1,6 +1,6 @@
 """Every parameter of every node: in its config file, documented, and refused when invalid.
 
-Walks the five graph nodes and their parameter classes
+Walks the graph nodes and their parameter classes
 (safe_legged_c3bf/interfaces/node_parameters.py): config/<node>.yaml holds exactly the class's
 defaults; each parameter has a unit and a description (on the node too, read-only where fixed
 at start-up); an invalid value (the example of its rule, and a value of the wrong type) makes
@@ -24,6 +24,9 @@ from safe_legged_c3bf.run.config import config_path
 NODES = {
     "safety_filter": ("safe_legged_c3bf.nodes.safety_filter_node", "SafetyFilterNode"),
     "obstacle_tracker": ("safe_legged_c3bf.nodes.obstacle_tracker_node", "ObstacleTrackerNode"),
+    "obstacle_detector": (
+        "safe_legged_c3bf.nodes.obstacle_detector_node", "ObstacleDetectorNode"
+    ),
     "reference_planner": (
         "safe_legged_c3bf.nodes.reference_planner_node", "ReferencePlannerNode"
     ),

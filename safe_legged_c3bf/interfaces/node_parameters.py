@@ -27,6 +27,9 @@ if TYPE_CHECKING:
 NODE_PARAMETER_CLASSES = {
     "safety_filter": ("safe_legged_c3bf.safety.params", "FilterParams"),
     "obstacle_tracker": ("safe_legged_c3bf.perception.params", "ObstacleTrackerParams"),
+    "obstacle_detector": (
+        "safe_legged_c3bf.perception.detector_params", "ObstacleDetectorParams"
+    ),
     "reference_planner": ("safe_legged_c3bf.planning.params", "ReferencePlannerParams"),
     "gait_controller": ("safe_legged_c3bf.gait.params", "GaitControllerParams"),
     "simulator": ("safe_legged_c3bf.sim.node_params", "SimulatorParams"),

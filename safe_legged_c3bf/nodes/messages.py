@@ -1,22 +1,27 @@
-"""Message conversions, written once: time stamps, odometry, twists and obstacles.
+"""Message conversions, written once: time stamps, odometry, twists, obstacles, range data.
 
 Every node and tool converts between ROS messages and the package's plain types here.
-Frames: odometry pose in odom, twist in base_link (REP-105); obstacles in odom. Units SI.
+Frames: odometry pose in odom, twist in base_link (REP-105); obstacles in odom; scans and
+clouds in their sensor's frame. Units SI.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from builtin_interfaces.msg import Time as TimeMsg
 from geometry_msgs.msg import Twist
 from nav_msgs.msg import Odometry
+from sensor_msgs.msg import LaserScan, PointCloud2
 
 from safe_legged_c3bf.interfaces.base_state import BaseState
 from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
 from safe_legged_c3bf_msgs.msg import Obstacle
+
+if TYPE_CHECKING:
+    from safe_legged_c3bf.perception.sensor_points import ScanPoints
 
 
 def time_parts(seconds: float) -> tuple[int, int]:
@@ -108,3 +113,31 @@ def obstacle_to_msg(
     msg.velocity_covariance = np.asarray(obs.velocity_covariance, float).reshape(9)
     msg.velocity_source = int(obs.velocity_source if velocity_source is None else velocity_source)
     return msg
+
+
+def laser_scan_points(msg: LaserScan) -> ScanPoints:
+    """The valid returns of a LaserScan in its frame (REP-117 readings dropped).
+
+    Raises SensorInputError ('malformed') for unusable scan geometry.
+    """
+    # Imported here: the perception package pulls scipy, which most nodes never need.
+    from safe_legged_c3bf.perception.sensor_points import scan_points
+
+    return scan_points(
+        np.asarray(msg.ranges, dtype=float), msg.angle_min, msg.angle_increment,
+        msg.range_min, msg.range_max, msg.time_increment,
+    )
+
+
+def point_cloud_xyz(msg: PointCloud2) -> np.ndarray:
+    """(n, 3) finite x, y, z of a PointCloud2 in its frame (m).
+
+    Raises SensorInputError ('malformed') when the fields or the data layout are unusable.
+    """
+    from safe_legged_c3bf.perception.sensor_points import CloudField, cloud_points
+
+    fields = [CloudField(f.name, f.offset, f.datatype, f.count) for f in msg.fields]
+    return cloud_points(
+        msg.data, fields, msg.point_step, msg.row_step, msg.width, msg.height,
+        bool(msg.is_bigendian),
+    )

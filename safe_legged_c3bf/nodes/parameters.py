@@ -62,10 +62,13 @@ def from_ros(value: Any) -> Any:
 
 
 def same_value(a: Any, b: Any) -> bool:
-    """Equal parameter values, NaN equal to NaN and a list equal to its tuple."""
+    """Equal parameter values, NaN equal to NaN (in lists too) and a list equal to its tuple."""
     if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
         return True
-    return to_ros(a) == to_ros(b)
+    a, b = from_ros(to_ros(a)), from_ros(to_ros(b))
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(same_value(x, y) for x, y in zip(a, b, strict=True))
+    return a == b
 
 
 class NodeParameters(Generic[P]):
