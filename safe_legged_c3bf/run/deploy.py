@@ -51,7 +51,7 @@ def deploy_specs(opts: argparse.Namespace) -> list[NodeSpec]:
         params: dict[str, Any] = dict(profile.get(name, {}))
         params["use_sim_time"] = bool(opts.use_sim_time)
         if name == "obstacle_detector":
-            params["robot"] = opts.robot
+            params["robot_kind"] = opts.robot
         specs.append(NodeSpec(
             name=name, module=modules[name], parameters=params,
             params_files=config_files(name),
