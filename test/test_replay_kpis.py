@@ -12,7 +12,7 @@ DT = 0.01
 def _truth(duration: float, pillar_x: float | None = 3.0) -> GroundTruth:
     """Robot standing at the origin facing +x; one static pillar (radius 0.2 m) ahead."""
     t = np.arange(0.0, duration, DT)
-    pose = np.zeros((t.size, 3))
+    pose = np.zeros((t.size, 5))
     obs = np.array([[pillar_x, 0.0, 0.0, 0.0, 0.2]]) if pillar_x is not None else np.zeros((0, 5))
     return GroundTruth(t, pose, t.copy(), [obs] * t.size)
 

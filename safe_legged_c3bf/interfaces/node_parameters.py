@@ -6,9 +6,9 @@ Every node declares exactly the fields of one
 :data:`NODE_PARAMETER_CLASSES`. Names, defaults, types, units and which parameters are fixed
 at start-up all come from those classes; nothing is listed twice.
 
-A scenario's ``filter:``, ``tracker:``, ``controller:`` and ``planner:`` sections are
-parameter overrides of the safety filter, obstacle tracker, gait controller and reference
-planner nodes (:data:`OVERRIDE_NODES`). rclpy ignores an override of a parameter a node never
+A scenario's ``filter:``, ``tracker:``, ``controller:``, ``planner:`` and ``detector:``
+sections are parameter overrides of the safety filter, obstacle tracker, gait controller,
+reference planner and obstacle detector nodes (:data:`OVERRIDE_NODES`). rclpy ignores an override of a parameter a node never
 declared, so a misspelt key would silently do nothing: :mod:`safe_legged_c3bf.sim.scenario`
 checks the keys and value types against these classes when the file is loaded.
 
@@ -41,6 +41,7 @@ OVERRIDE_NODES = {
     "tracker": "obstacle_tracker",
     "controller": "gait_controller",
     "planner": "reference_planner",
+    "detector": "obstacle_detector",
 }
 
 

@@ -3,9 +3,9 @@
 The replay plays a recording's sensor, odometry and reference topics into the safety pipeline
 and collects what the filter did each cycle. Ground truth (the recording's robot pose and its
 true obstacles) says when the reference command put the robot on a collision course: the
-reference velocity, relative to a vertical obstacle within ``sensing_range``, points into the
-obstacle's collision cone (the paper's barrier ``h < 0`` with the obstacle's radius grown by
-the filter's inflation ``pad``). Per such **cone entry**:
+reference velocity, relative to a vertical obstacle within ``sensing_range`` (8 m, the
+LiDAR's range), points into the obstacle's collision cone (the paper's barrier ``h < 0`` with
+the obstacle's radius grown by the filter's inflation ``pad``). Per such **cone entry**:
 
 - ``reaction``: s from the entry to the first cycle the filter acts (status ACTIVE, RELAXED,
   EMERGENCY_BRAKE or STALE_INPUT); 0 when it was already acting;
@@ -13,8 +13,9 @@ the filter's inflation ``pad``). Per such **cone entry**:
   cone (``h >= 0``), the filter's answer to the threat, like a time to stop;
 - missed when neither happens within ``horizon`` s.
 
-On a **free path** (every obstacle surface farther than ``free_clearance`` and no cone entry),
-``false_intervention_share`` is the share of cycles in which the filter acted. Units: s, m, m/s;
+On a **free path** (every obstacle surface farther than ``free_clearance``, and neither the
+reference nor the robot's own velocity in a cone), ``false_intervention_share`` is the share
+of cycles in which the filter acted. Units: s, m, m/s;
 positions and velocities in odom.
 
 Horizontal obstacles (bars) are not scored: their cone lives in x-z and the reference has no
@@ -40,8 +41,8 @@ class KpiLimits:
     reaction: float = 0.3
     cone_exit: float = 0.6
     false_intervention_share: float = 0.05
-    sensing_range: float = 4.0
-    free_clearance: float = 1.5
+    sensing_range: float = 8.0
+    free_clearance: float = 2.0
     horizon: float = 3.0
     warm_up: float = 1.0
 
@@ -70,7 +71,7 @@ class GroundTruth:
 
     Attributes:
         pose_t: (m,) sim times of the poses (s).
-        pose: (m, 3) x, y (m, odom) and yaw (rad).
+        pose: (m, 5) x, y (m, odom), yaw (rad) and the body-frame velocity vx, vy (m/s).
         obstacle_t: (k,) sim times of the obstacle frames (s).
         obstacles: per frame, an (j, 5) array of centre x, y, velocity x, y (odom) and radius.
 
@@ -150,16 +151,21 @@ def score(cycles: FilterCycles, truth: GroundTruth, pad: float,
     yaw = np.interp(t, truth.pose_t, np.unwrap(truth.pose[:, 2]))
     frame = np.clip(np.searchsorted(truth.obstacle_t, t, side="right") - 1, 0, None)
     acting = np.isin(status, ACTING)
+    vel = np.stack([np.interp(t, truth.pose_t, truth.pose[:, 3]),
+                    np.interp(t, truth.pose_t, truth.pose[:, 4]), np.zeros(t.size)], axis=1) \
+        if truth.pose.shape[1] >= 5 else np.zeros((t.size, 3))
     ref_in = np.zeros(t.size, bool)
     safe_in = np.zeros(t.size, bool)
+    moving_in = np.zeros(t.size, bool)
     clear = np.zeros(t.size)
     for k in range(t.size):
         p, obs = np.array([x[k], y[k]]), truth.obstacles[frame[k]]
         ref_in[k] = _in_cone(p, yaw[k], ref[k], obs, lim, pad)
         safe_in[k] = _in_cone(p, yaw[k], safe[k], obs, lim, pad)
+        moving_in[k] = _in_cone(p, yaw[k], vel[k], obs, lim, pad)
         clear[k] = _clearance(p, obs)
     _score_entries(rep, t, acting, ref_in, safe_in, lim)
-    free = (~ref_in) & (clear > lim.free_clearance)
+    free = (~ref_in) & (~moving_in) & (clear > lim.free_clearance)
     rep.free_cycles = int(free.sum())
     rep.false_intervention_share = float(acting[free].mean()) if free.any() else 0.0
     _judge(rep, lim)

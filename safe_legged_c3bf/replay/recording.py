@@ -1,14 +1,17 @@
 """Read an MCAP recording for a replay: the messages to play and the ground truth to score.
 
 Messages keep their serialized CDR bytes (played back byte for byte, stamps unchanged). Each
-gets the sim time of the newest ``/clock`` logged before it: that is when the replay
-publishes it. Ground truth for :mod:`.kpis` comes from ``/odom`` (robot pose) and
-``/ground_truth/obstacles`` (vertical obstacles: centre, velocity, larger semi-axis as radius).
+is played at its own stamp (``/clock``'s time, a header's stamp), an unstamped message at the
+newest ``/clock`` logged before it; a stamped message is never played before its stamp (a
+receiver on sim time would take it for a message from the future). Ground truth for
+:mod:`.kpis` comes from ``/odom`` (robot pose and velocity) and ``/ground_truth/obstacles``
+(vertical obstacles: centre, velocity, larger semi-axis as radius).
 """
 
 from __future__ import annotations
 
 import math
+import struct
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -21,6 +24,8 @@ from safe_legged_c3bf.replay.kpis import GroundTruth
 PLAYED_TOPICS = (topics.CLOCK.name, topics.ODOM.name, topics.SCAN.name, topics.POINTS.name,
                  topics.CMD_VEL.name)
 _TRUTH_TOPICS = (topics.ODOM.name, topics.GROUND_TRUTH_OBSTACLES.name)
+#: Played topics whose message starts with a std_msgs/Header (or is a Time, /clock).
+_STAMPED = (topics.CLOCK.name, topics.ODOM.name, topics.SCAN.name, topics.POINTS.name)
 
 
 @dataclass
@@ -82,27 +87,40 @@ def load_recording(path: str | Path, played: tuple[str, ...] = PLAYED_TOPICS) ->
                     msg = deserialize_message(data, classes[name])
                     frames.append((_seconds(msg.header.stamp), _vertical(msg)))
                 if name in played:
-                    messages.append((clock, name, data))
+                    stamp = _cdr_stamp(data) if name in _STAMPED else None
+                    messages.append((max(clock, stamp) if stamp is not None else clock, name,
+                                     data))
     except (McapError, OSError, ValueError) as err:
         raise RecordingError(f"{path}: cannot read the recording: {err}") from None
+    messages.sort(key=lambda m: m[0])  # stable: log order within one instant
     if not messages:
         raise RecordingError(f"{path}: no /clock or none of {', '.join(played)}")
     counts = {name: sum(1 for _, n, _ in messages if n == name) for name in played}
-    pose = np.array(poses, float).reshape(-1, 4)
+    pose = np.array(poses, float).reshape(-1, 6)
     truth = GroundTruth(pose[:, 0], pose[:, 1:], np.array([f[0] for f in frames], float),
                         [f[1] for f in frames])
     return Recording(path, messages, truth, counts)
+
+
+def _cdr_stamp(data: bytes) -> float | None:
+    """The leading builtin_interfaces/Time of a CDR message (after its 4-byte encapsulation)."""
+    if len(data) < 12:
+        return None
+    order = "<" if data[1] == 1 else ">"
+    sec, nanosec = struct.unpack(order + "iI", data[4:12])
+    return sec + nanosec * 1e-9
 
 
 def _seconds(stamp) -> float:  # noqa: ANN001 - builtin_interfaces/Time
     return stamp.sec + stamp.nanosec * 1e-9
 
 
-def _pose(msg) -> tuple[float, float, float, float]:  # noqa: ANN001 - nav_msgs/Odometry
+def _pose(msg) -> tuple[float, ...]:  # noqa: ANN001 - nav_msgs/Odometry
+    """t, x, y, yaw, and the body-frame velocity vx, vy (m/s) of an Odometry."""
     q = msg.pose.pose.orientation
     yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-    p = msg.pose.pose.position
-    return _seconds(msg.header.stamp), p.x, p.y, yaw
+    p, v = msg.pose.pose.position, msg.twist.twist.linear
+    return _seconds(msg.header.stamp), p.x, p.y, yaw, v.x, v.y
 
 
 def _vertical(msg) -> np.ndarray:  # noqa: ANN001 - ObstacleArray

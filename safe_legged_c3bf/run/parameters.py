@@ -30,6 +30,7 @@ from safe_legged_c3bf.run.supervisor import NodeSpec
 #: Scenario override sections -> node names.
 OVERRIDE_TARGETS = {
     "filter": "safety_filter", "tracker": "obstacle_tracker", "controller": "gait_controller",
+    "detector": "obstacle_detector",
 }
 
 

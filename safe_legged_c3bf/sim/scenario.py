@@ -40,7 +40,7 @@ from safe_legged_c3bf.sim.scenario_schema import (
 FALL_DEFAULTS = {"quadruped": (0.12, 0.8), "biped": (0.45, 0.8)}
 
 #: Sections of parameter overrides for other nodes (the planner's are in ``planner:``).
-OVERRIDE_SECTIONS = ("filter", "tracker", "controller")
+OVERRIDE_SECTIONS = ("filter", "tracker", "controller", "detector")
 __all__ = [
     "FALL_DEFAULTS", "MOTION_TYPES", "OVERRIDE_SECTIONS", "PERCEPTION_SOURCES", "PLANES",
     "PLANNER_MODES", "WAYPOINT_MODES", "DepthConfig", "GoalConfig", "GroundTruthConfig",

@@ -66,6 +66,7 @@ def scenario_model() -> type[Section]:
         filter=(override_model("filter") | None, None),
         tracker=(override_model("tracker") | None, None),
         controller=(override_model("controller") | None, None),
+        detector=(override_model("detector") | None, None),
     )
 
 
