@@ -18,6 +18,7 @@ process. ``--body-model body`` runs the whole-body filter (``filter: {body_model
 
 Usage: python benchmarks/realtime.py [--seconds 20] [--robots quadruped biped]
        [--modes lockstep wallclock] [--in-process] [--body-model point|body] [--repeat 1]
+       [--perception oracle|sensors]
 """
 
 from __future__ import annotations
@@ -53,11 +54,14 @@ def scenario_file(robot: str, body_model: str | None, folder: Path) -> str:
     return str(path)
 
 
-def run_once(scenario: str, seconds: float, mode: str, in_process: bool, out: Path) -> dict:
+def run_once(scenario: str, seconds: float, mode: str, in_process: bool, out: Path,
+             perception: str | None = None) -> dict:
     """One bringup run (it leases its own private ROS domain); its report's figures."""
     cmd = [sys.executable, "-m", "safe_legged_c3bf.bringup", "--scenario", scenario,
            "--duration", str(seconds), "--full-duration", "--out", str(out),
            "--progress-period", "60"]
+    if perception:
+        cmd += ["--perception", perception]
     if mode == "wallclock":
         cmd.append("--no-lockstep")
     if in_process:
@@ -122,6 +126,8 @@ def main() -> int:
                     default=["lockstep", "wallclock"])
     ap.add_argument("--in-process", action="store_true", help="also run every node in one process")
     ap.add_argument("--body-model", choices=("point", "body"), help="the filter's body model")
+    ap.add_argument("--perception", choices=("oracle", "sensors"),
+                    help="obstacle perception (default: the scenario's, oracle)")
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--json", type=Path, help="also write every row to this file")
     opts = ap.parse_args()
@@ -139,7 +145,8 @@ def main() -> int:
                         label = (f"{robot} {'in-process' if in_process else 'processes'} "
                                  f"{mode} #{k + 1}")
                         out = folder / label.replace(" ", "_").replace("#", "")
-                        row = run_once(scenario, opts.seconds, mode, in_process, out)
+                        row = run_once(scenario, opts.seconds, mode, in_process, out,
+                                       opts.perception)
                         print_row(label, row)
                         rows.append({"label": label, **row})
     if opts.json:
