@@ -363,3 +363,25 @@ def test_in_process_run_with_video(tmp_path, bringups):
     assert report["video"] == str(video)
     frames = [f for f in iio.get_reader(video)]
     assert len(frames) >= 8  # 2 s at 5 frames per sim second (identical frames may merge)
+
+
+@pytest.mark.slow
+def test_sensors_perception_starts_the_detector_and_the_filter_sees_its_obstacles(
+        tmp_path, bringups):
+    """--perception sensors: /scan and /points, the detector's detections, tracked, filtered."""
+    run_dir = tmp_path / "run"
+    b = Bringup("--scenario", SHORT, "--perception", "sensors", "--duration", "3",
+                "--full-duration", "--out", str(run_dir), cwd=tmp_path)
+    bringups.append(b)
+    assert b.wait(timeout=180) == 0, b.out + b.err
+    assert "perception sensors" in b.out
+    report = json.loads((run_dir / "report.json").read_text())
+    s = report["summary"]
+    assert s["perception"] == "sensors" and s["completed"] is True
+    assert "obstacle_detector" in s["cpu"]["per_sim_second"]
+    sim = json.loads((run_dir / "simulator_summary.json").read_text())
+    assert sim["perception_source"] == "sensors" and sim["lidar_scans"] >= 25
+    # the detector's obstacles reached the filter: it filtered against them, not stale inputs
+    shares = s["filter"]["status_share"]
+    assert shares.get("STALE_INPUT", 0.0) < 0.2, shares
+    assert s["filter"]["cycles"] > 100
