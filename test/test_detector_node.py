@@ -242,3 +242,36 @@ def test_a_lidar_only_robot(ros_executor):
     assert o.plane == Obstacle.VERTICAL
     assert math.hypot(o.center.x - 2.0, o.center.y + 0.5) < 0.05
     assert h.node.clouds == 0 and h.node.fused == 0
+
+
+def test_the_bar_memory_in_the_node(ros_executor):
+    h = Harness(ros_executor)
+    mounts = default_mounts("quadruped")
+    scene = [Bar(2.5, z=0.35, radius=0.05)]
+    t, before = START, Pose(x=1.0, z=0.28)
+    h.clock(t)
+    h.odom(odom_msg(before, t))
+    h.send(h.points_pub, cloud_msg(cloud(before, mounts[DEPTH_FRAME], scene), t))
+    h.send(h.scan_pub, scan_msg(scan(before, mounts[LIDAR_FRAME], scene), t))
+    assert len(h.node.detector.memory) == 1
+    # A live change of a detector parameter keeps the memory; an invalid one is refused.
+    assert h.node.set_parameters([Parameter("bar_memory", value=5.0)])[0].successful
+    assert h.node.detector.config.bar_memory == 5.0 and len(h.node.detector.memory) == 1
+    result = h.node.set_parameters([Parameter("bar_memory", value=-1.0)])[0]
+    assert not result.successful and "bar_memory" in result.reason
+    # Under the bar, the scan alone (the cloud is too old to fuse): still a bar, no wall.
+    under = Pose(x=2.2, z=0.22)
+    t += 0.5
+    h.clock(t)
+    h.odom(odom_msg(under, t))
+    h.send(h.scan_pub, scan_msg(scan(under, mounts[LIDAR_FRAME], scene), t))
+    msg = h.received(2)[-1]
+    assert h.node.fused == 1
+    assert [o.plane for o in msg.obstacles] == [Obstacle.HORIZONTAL]
+    assert abs(msg.obstacles[0].center.x - 2.5) < 0.06
+    # The clock goes back (a new run): the pose history and the bars are forgotten.
+    t = START - 5.0
+    h.clock(t)
+    h.odom_pub.publish(odom_msg(under, t))
+    assert spin_until(ros_executor, lambda: h.node.poses.newest == t, 5.0)
+    assert len(h.node.poses) == 1 and len(h.node.detector.memory) == 0

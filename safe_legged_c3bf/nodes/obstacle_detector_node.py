@@ -11,6 +11,11 @@ stamps are at most ``cloud_max_age`` apart (so at the scan rate); ``scan`` ignor
 the sensor's stamp, in ``odom_frame``, with no ids and zero velocities (VELOCITY_UNKNOWN):
 the tracker associates and estimates velocities.
 
+The detector remembers the bars the 3-D sensor detected for ``bar_memory`` s (sensor stamps,
+``perception/bar_memory.py``), so that the LiDAR's cut through a bar the cloud no longer sees
+(under it) is not a wall. A live change of a detector parameter keeps that memory; an /odom
+stamp older than the pose history (the clock went back: a new run) clears both.
+
 Untrusted inputs never crash the node; they are dropped and counted by ``<topic>_<reason>``
 in /diagnostics: a message larger than ``max_message_bytes`` (before decoding), a wrong
 ``frame_id`` (or, for /odom, child frame), a stamp more than ``max_future_stamp`` ahead of or
@@ -103,9 +108,9 @@ class ObstacleDetectorNode(Node):
     def _apply_params(
         self, old: ObstacleDetectorParams, new: ObstacleDetectorParams, names: frozenset[str]
     ) -> None:
-        """Use validated new parameters: a new detector configuration, the pose hold."""
+        """Use validated new parameters: the detector's (its bar memory kept), the pose hold."""
         if new.detector != old.detector:
-            self.detector = ObstacleDetector(new.detector)
+            self.detector.configure(new.detector)
         self.poses.max_extrapolation = float(new.max_pose_extrapolation)
 
     # -- inputs -------------------------------------------------------------------------------
@@ -149,6 +154,7 @@ class ObstacleDetectorNode(Node):
         newest = self.poses.newest
         if newest is not None and stamp < newest - float(p.pose_history):
             self.poses.clear()  # the clock went back (a new run): start a new history
+            self.detector.clear()  # and forget the bars of the old run's odom
         if not self.poses.add(stamp, position, (q.x, q.y, q.z, q.w)):
             self._reject("odom", "out_of_order")
 
@@ -268,7 +274,8 @@ class ObstacleDetectorNode(Node):
         elif p.sensors == "both" and not self._last_fused:
             level, text = "warn", (
                 "detecting from the scan alone: no /points within cloud_max_age (overhead "
-                "obstacles the scan plane cuts are reported as vertical)"
+                "obstacles the scan plane cuts are reported as vertical, unless in a bar "
+                "remembered for bar_memory)"
             )
         else:
             level, text = "ok", "detecting"
@@ -282,6 +289,8 @@ class ObstacleDetectorNode(Node):
             "fused_with_cloud": self.fused,
             "obstacles": len(report.obstacles),
             "horizontal_clusters": report.horizontal_clusters,
+            "remembered_bars": report.remembered_bars,
+            "bar_points_absorbed": report.absorbed,
             "points": report.points,
             "candidates": report.candidates,
             "detect_ms_median": f"{float(np.median(timing)):.3f}",

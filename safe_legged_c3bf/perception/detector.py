@@ -18,8 +18,17 @@ One frame, in order:
    ``min_free_space_rays`` cloud rays pass beneath it and end beyond it. Otherwise it joins
    the vertical points: something seen only by the 2-D LiDAR (outside the 3-D sensor's view)
    is VERTICAL, as is anything whose foot is merely out of view. Scan returns of a
-   horizontal cluster outside the cloud's view stay with it only on the bar's line.
-3. **Clusters and shapes** (``clustering.py``, ``shapes.py``): the vertical points are
+   horizontal cluster outside the cloud's view stay with it only on the bar's line, and not
+   in a column seen standing under a remembered bar (step 3).
+3. **Remembered bars** (``bar_memory.py``): the HORIZONTAL obstacles are remembered in odom
+   for ``bar_memory`` s after the last frame that detected them. Candidates about to be
+   VERTICAL whose column does not reach the ground and that lie in a remembered bar's volume
+   (grown by ``bar_memory_tolerance``) are that bar's: under a bar the forward sensor no
+   longer sees it, while the LiDAR plane of a ducked body cuts it. Not those in a column seen
+   standing up into the bar within ``bar_memory`` (its posts), off the line of the bar's cut
+   or next to a point that stays VERTICAL: what stands under a bar stays VERTICAL. Every
+   remembered bar is reported, once (a bar detected again is merged with its memory).
+4. **Clusters and shapes** (``clustering.py``, ``shapes.py``): the vertical points are
    clustered on x-y (a vertical obstacle is extruded along z: what a bar's shadow splits
    into an upper and a lower part of a pillar is one pillar) and each cluster becomes a
    circle, an ellipse or several pieces; each horizontal cluster (clustered in 3-D) an x-z
@@ -31,8 +40,12 @@ How the scan and the cloud fuse: a LiDAR whose plane cuts a bar returns points o
 they cluster with the cloud's points of the same bar, their columns hold no ground-reaching
 point, and the cloud's rays beneath the bar make the whole cluster HORIZONTAL. So a bar cut
 by the scan plane is never reported as a vertical obstacle while the cloud sees the bar
-above free space. A LiDAR point on a pillar shares its column with the cloud's points of the
-pillar's foot and is grounded.
+above free space, nor, for ``bar_memory`` s after it last did, where the cloud no longer sees
+it (under it, or right before it). A LiDAR point on a pillar shares its column with the
+cloud's points of the pillar's foot and is grounded, and stays VERTICAL under a bar too.
+
+Before the cloud has seen a bar (the first frame, a robot with a LiDAR only), the LiDAR's cut
+through it is a floating cluster seen by the scan alone: VERTICAL, the safe default.
 """
 
 from __future__ import annotations
@@ -41,6 +54,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from safe_legged_c3bf.perception.bar_memory import BarMemory
 from safe_legged_c3bf.perception.clustering import cluster_labels, scan_links
 from safe_legged_c3bf.perception.detector_config import DetectorConfig
 from safe_legged_c3bf.perception.free_space import (
@@ -71,6 +85,8 @@ class DetectionReport:
         vertical_clusters: vertical clusters found.
         horizontal_clusters: horizontal (floating, free space beneath) clusters found.
         dropped_obstacles: obstacles beyond ``max_obstacles``.
+        remembered_bars: bars reported from the memory (not detected in this frame).
+        absorbed: candidates attributed to remembered bars (not VERTICAL).
 
     """
 
@@ -82,6 +98,8 @@ class DetectionReport:
     vertical_clusters: int = 0
     horizontal_clusters: int = 0
     dropped_obstacles: int = 0
+    remembered_bars: int = 0
+    absorbed: int = 0
 
 
 @dataclass(frozen=True)
@@ -109,8 +127,17 @@ class ObstacleDetector:
     """Detects obstacles in fused scan and cloud frames (see the module doc)."""
 
     def __init__(self, config: DetectorConfig | None = None) -> None:
-        """A detector with ``config`` (defaults if None)."""
+        """A detector with ``config`` (defaults if None) and an empty bar memory."""
         self.config = config or DetectorConfig()
+        self.memory = BarMemory()
+
+    def configure(self, config: DetectorConfig) -> None:
+        """Use ``config`` from the next frame on; the remembered bars are kept."""
+        self.config = config
+
+    def clear(self) -> None:
+        """Forget the remembered bars (a new run, odometry reset)."""
+        self.memory.clear()
 
     def detect(
         self, scan: SensorFrame | None = None, cloud: SensorFrame | None = None
@@ -140,11 +167,16 @@ class ObstacleDetector:
             points[keep], origins[keep], from_cloud[keep],
             np.asarray(self.config.touch_threshold(split.distance[keep])), links,
         )
-        vertical, horizontal = self._classify(cand, cloud)
-        obstacles: list[DetectedObstacle] = []
+        grounded = grounded_mask(cand.points, cand.touch, self.config.column_cell)
+        vertical, horizontal = self._classify(cand, grounded, cloud)
+        fresh: list[DetectedObstacle] = []
         for members, bottom in horizontal:
             view = cand.origins[members].mean(axis=0)
-            obstacles.extend(fit_horizontal(cand.points[members], view, self.config, bottom))
+            fresh.extend(fit_horizontal(cand.points[members], view, self.config, bottom))
+        now = max(f.stamp for f in frames)
+        vertical, absorbed = self._remember(cand, grounded, vertical, fresh, now)
+        obstacles = self.memory.obstacles(now, absorbed)
+        remembered = sum(b.last_seen != now for b in self.memory.bars)
         labels = cluster_labels(
             cand.points[vertical], self.config.voxel_size, self.config.cluster_tolerance,
             self.config.min_cluster_points, planar=True, links=cand.links_within(vertical),
@@ -165,16 +197,20 @@ class ObstacleDetector:
             vertical_clusters=n_vertical,
             horizontal_clusters=len(horizontal),
             dropped_obstacles=len(obstacles) - len(kept),
+            remembered_bars=remembered,
+            absorbed=int(absorbed.sum()),
         )
 
     def _classify(
-        self, cand: _Candidates, cloud: SensorFrame | None
+        self, cand: _Candidates, grounded: np.ndarray, cloud: SensorFrame | None
     ) -> tuple[np.ndarray, list[tuple[np.ndarray, float]]]:
-        """Vertical candidates' indices; each horizontal cluster's members and underside (m)."""
+        """Vertical candidates' indices; each horizontal cluster's members and underside (m).
+
+        ``grounded``: (n,) the candidates whose column reaches the ground.
+        """
         n = cand.points.shape[0]
         if n == 0:
             return np.zeros(0, dtype=np.int64), []
-        grounded = grounded_mask(cand.points, cand.touch, self.config.column_cell)
         floating = np.flatnonzero(~grounded)
         if floating.size == 0 or cloud is None or not np.any(cand.from_cloud[floating]):
             return np.arange(n), []
@@ -192,12 +228,47 @@ class ObstacleDetector:
                 cand.points[members], cand.from_cloud[members], cloud.origin,
                 self.config.free_space_margin,
             )]
+            # Scan returns in a column seen standing under a remembered bar (its posts)
+            # are not the bar, even on its line.
+            standing = self.memory.standing(cand.points[members, :2], self.config.column_cell)
+            members = members[cand.from_cloud[members] | ~standing]
             free = rays_beneath(cand.points[members], cloud.origin, cloud.points, self.config)
             if free.rays >= self.config.min_free_space_rays:
                 overhead[members] = True
                 bottom = underside(cand.points[members], cloud.origin, free, self.config)
                 horizontal.append((members, bottom))
         return np.flatnonzero(~overhead), horizontal
+
+    def _remember(
+        self,
+        cand: _Candidates,
+        grounded: np.ndarray,
+        vertical: np.ndarray,
+        fresh: list[DetectedObstacle],
+        now: float,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Remember ``fresh`` bars; the vertical candidates left and points absorbed per bar.
+
+        Only the floating (not grounded) vertical candidates in a remembered bar's volume,
+        on the line of its cut, may be absorbed, none whose column was seen standing up into
+        the bar's band within ``bar_memory``, and none within ``cluster_tolerance`` (x-y) of
+        a vertical point that stays (``BarMemory.absorb``): what stands under or beside a
+        bar stays VERTICAL.
+        """
+        c = self.config
+        self.memory.update(fresh, now, c.bar_memory, c.bar_memory_tolerance)
+        self.memory.stand(
+            cand.points[grounded], now, c.column_cell, c.bar_memory_tolerance,
+            c.bar_memory_tolerance + c.cluster_tolerance,
+        )
+        is_vertical = np.zeros(cand.points.shape[0], dtype=bool)
+        is_vertical[vertical] = True
+        owner = self.memory.absorb(
+            cand.points, is_vertical & ~grounded, is_vertical & grounded,
+            c.bar_memory_tolerance, c.cluster_tolerance, c.column_cell,
+        )
+        absorbed = np.bincount(owner[owner >= 0], minlength=len(self.memory))
+        return np.flatnonzero(is_vertical & (owner < 0)), absorbed
 
     def _nearest(
         self, obstacles: list[DetectedObstacle], viewpoint: np.ndarray

@@ -89,6 +89,19 @@ class DetectorConfig(TypedParams):
         "the underside reported is that far lower at the cluster's distance (never below the "
         "highest ray seen passing beneath it)", interval(0.0, 0.5, False, "0.5"),
     )
+    bar_memory: float = param(
+        10.0, "s", "how long (sim time) a HORIZONTAL obstacle the 3-D sensor detected is "
+        "remembered in odom after the last frame that detected it; floating points the "
+        "frame would make VERTICAL (seen by the 2-D LiDAR alone, e.g. under the bar, where "
+        "the forward sensor no longer sees it) that lie in a remembered bar's volume are the "
+        "bar, not a wall, unless their column reaches the ground; remembered bars are "
+        "reported; 0 forgets them at once (perception/bar_memory.py)", NON_NEGATIVE,
+    )
+    bar_memory_tolerance: float = param(
+        0.05, "m", "growth of a remembered bar's volume (its x-z ellipse's box along x and z, "
+        "half its extent along y) within which points are attributed to it; also how close "
+        "two detections' x centres are to be the same bar", NON_NEGATIVE,
+    )
     max_piece_length: float = param(
         0.5, "m", "vertical clusters longer than this along their major axis (walls, benches) "
         "are split into pieces at most this long; horizontal ones whose depth along x exceeds "
