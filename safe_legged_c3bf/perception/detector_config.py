@@ -90,12 +90,15 @@ class DetectorConfig(TypedParams):
         "highest ray seen passing beneath it)", interval(0.0, 0.5, False, "0.5"),
     )
     bar_memory: float = param(
-        10.0, "s", "how long (sim time) a HORIZONTAL obstacle the 3-D sensor detected is "
+        30.0, "s", "how long (sim time) a HORIZONTAL obstacle the 3-D sensor detected is "
         "remembered in odom after the last frame that detected it; floating points the "
         "frame would make VERTICAL (seen by the 2-D LiDAR alone, e.g. under the bar, where "
         "the forward sensor no longer sees it) that lie in a remembered bar's volume are the "
         "bar, not a wall, unless their column reaches the ground; remembered bars are "
-        "reported; 0 forgets them at once (perception/bar_memory.py)", NON_NEGATIVE,
+        "reported; 0 forgets them at once (perception/bar_memory.py). 30 s: twice the "
+        "longest passage measured (the A1 ducked under quadruped_horizontal's bar 13 s after "
+        "the 3-D sensor last saw it); longer keeps a removed bar (the robot ducks for nothing)",
+        NON_NEGATIVE,
     )
     bar_memory_tolerance: float = param(
         0.05, "m", "growth of a remembered bar's volume (its x-z ellipse's box along x and z, "
