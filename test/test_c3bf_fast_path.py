@@ -1,8 +1,10 @@
-"""The filter's fast path (``fast_path``) against its general path, and the obstacle layout
-it keeps per ``Obstacles`` object (``rows.PointRows``): a changed set is never missed."""
+"""The filter's fast path (``fast_path``) against its general path, the obstacle layout it
+keeps per ``Obstacles`` object (``rows.PointRows``: a changed set is never missed) and the
+re-solved working set (``working_set``) against DAQP."""
 
 import numpy as np
 import pytest
+from test_c3bf_dense_qp import unicycle_clutter
 
 from safe_legged_c3bf.c3bf import (
     DEFAULT_V_EPS,
@@ -15,7 +17,9 @@ from safe_legged_c3bf.c3bf import (
     XZDoubleIntegratorModel,
 )
 from safe_legged_c3bf.c3bf import filter as filter_mod
+from safe_legged_c3bf.c3bf.dense_qp import solve_box_qp
 from safe_legged_c3bf.c3bf.rows import PointRows
+from safe_legged_c3bf.c3bf.working_set import resolve
 
 MODELS = [UnicycleModel(offset=0.2), XZDoubleIntegratorModel(), HolonomicModel(),
           UnicycleHeightModel(offset=0.15)]
@@ -158,3 +162,77 @@ def test_a_changed_obstacle_set_is_never_missed():
         same(flt.filter(x, u_ref, base), fresh.filter(x, u_ref, base), tol=1e-12)
     with pytest.raises(ValueError):  # an Obstacles object cannot change under the filter
         base.center[0, 0] = 1.0
+
+
+def test_working_set_resolves_to_daqps_optimum():
+    """``working_set.resolve`` on DAQP's final working set (rows and limits, any SPD W)
+    gives DAQP's optimum with multipliers >= 0; a set with a row too many or too few is
+    refused (a negative multiplier) or its point breaks a row."""
+    rng = np.random.default_rng(9)
+    matched = refused = 0
+    for _ in range(400):
+        m = int(rng.choice([2, 3]))
+        n = int(rng.integers(1, 12))
+        lo, hi = -rng.uniform(0.3, 2.0, m), rng.uniform(0.3, 2.0, m)
+        A = rng.normal(size=(n, m))
+        b = A @ rng.uniform(0.5 * lo, 0.5 * hi) - rng.exponential(0.3, n)
+        L = rng.normal(size=(m, m))
+        W = L @ L.T + 0.5 * np.eye(m) if rng.uniform() < 0.5 else np.eye(m)
+        u0 = rng.normal(size=m) * 2.0
+        res = solve_box_qp(W, u0, A, b, lo, hi)
+        ws = res.active
+        if res.u is None or not 0 < len(ws) <= m:
+            continue
+        T = np.vstack([-b, A.T])  # [c0; G^T]: A u - b >= 0
+        w_inv = None if (W == np.eye(m)).all() else np.linalg.inv(W).tolist()
+        u, lam = resolve(ws, T, u0.tolist(), lo.tolist(), hi.tolist(), w_inv)
+        if u is None:  # only a badly conditioned set (or a multiplier of -0.0) is refused
+            assert lam is None or min(lam) > -1e-12
+            continue
+        np.testing.assert_allclose(u, res.u, rtol=0, atol=1e-12)
+        matched += 1
+        rows = [i for i in range(n) if i not in ws]
+        for wrong in ([*ws[:-1]], [*ws, rows[0]] if rows and len(ws) < m else None):
+            if not wrong:
+                continue
+            u2, lam2 = resolve(tuple(wrong), T, u0.tolist(), lo.tolist(), hi.tolist(), w_inv)
+            if u2 is None:
+                refused += 1
+            else:  # feasible everywhere and multipliers >= 0 would make it the optimum too
+                z = A @ u2 - b
+                breaks = z.min() < -1e-9 or (u2 < lo - 1e-9).any() or (u2 > hi + 1e-9).any()
+                assert breaks or np.allclose(u2, res.u, atol=1e-9)
+                refused += breaks
+    assert matched > 250 and refused > 50
+
+
+def test_working_set_shortcut_gives_daqps_answers(monkeypatch):
+    """The filter on pillars ahead of a unicycle (N = 10, 50, 250, one or two binding,
+    states perturbed every call): with the shortcut (``working_set``) and with DAQP on every
+    call, the same answers; the shortcut answers most calls."""
+    from safe_legged_c3bf.c3bf import fast_path
+    rng = np.random.default_rng(1)
+    model = UnicycleModel(offset=0.2)
+    lo, hi = np.array([-2.0, -4.0]), np.array([2.0, 4.0])
+    x0 = np.array([0.0, 0.0, 0.0, 1.0, 0.0])
+    for n in (10, 50, 250):
+        obs = Obstacles.concatenate(Obstacles.vertical([[3.0, 0.6]], [0.3]),
+                                    unicycle_clutter(model, x0, rng, n - 1))
+        xs = x0 + rng.normal(size=(150, 5)) * [0.01, 0.01, 0.01, 0.02, 0.02]
+        calls = {"hits": 0}
+
+        def counting(*args, orig=resolve, calls=calls):
+            out = orig(*args)
+            calls["hits"] += out[0] is not None
+            return out
+
+        monkeypatch.setattr(fast_path, "resolve", counting)
+        a = SafetyFilter(model, u_min=lo, u_max=hi, margin=0.0, v_eps=0.0)
+        ra = [a.filter(x, np.array([1.0, 0.0]), obs) for x in xs]
+        monkeypatch.setattr(fast_path, "resolve", lambda *args: (None, None))
+        b = SafetyFilter(model, u_min=lo, u_max=hi, margin=0.0, v_eps=0.0)
+        rb = [b.filter(x, np.array([1.0, 0.0]), obs) for x in xs]
+        for p, q in zip(ra, rb, strict=True):
+            same(p, q, tol=1e-12)
+        assert sum(r.solver == "active_set" for r in ra) > 100
+        assert calls["hits"] > 100

@@ -18,6 +18,10 @@ start), which on consecutive control cycles is usually the answer's active set a
 start that ends anywhere but at the optimum (an infeasibility claim, cycling, the iteration
 limit) is re-solved once from scratch, so a warm start never changes the verdict.
 
+Each workspace also keeps the working set of its last optimum (:attr:`DenseQP.working_set`),
+which the filter re-solves first (``working_set``): when it still gives a KKT point, DAQP is
+not called at all.
+
 Tolerance: a row counts as violated beyond ``primal_tol = 1e-12 (1 + ||u0||)`` (rounded up to a
 power of ten), in the units of the rows (unit norm: input units). The caller verifies the
 answer against the rows (``SafetyFilter._verify``).
@@ -94,6 +98,8 @@ class DenseQP:
         self.row_lower = self._bl[self.m:]
         """The rows' right-hand sides ``b`` (a caller may write them here and pass
         ``b=None``)."""
+        self.working_set: tuple[int, ...] = ()
+        """The working set of the last optimum found (``QPResult.active``), or empty."""
         self.last_infeasible = False
         """The last solve ended with DAQP's certificate of infeasibility."""
 
@@ -146,7 +152,9 @@ class DenseQP:
                 x[j] = bl[j]
             elif lam_j > 0.0:
                 x[j] = bu[j]
-        return QPResult(x, False, info["iterations"], flag, lam)  # (x: a fresh array)
+        res = QPResult(x, False, info["iterations"], flag, lam)  # (x: a fresh array)
+        self.working_set = res.active
+        return res
 
     def _set_box(self, lo, hi) -> bool:
         """Write the limits ``lo``, ``hi`` if they changed: whether they did."""

@@ -25,8 +25,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .dense_qp import primal_tol
 from .result import FilterResult, FilterStatus
 from .rows import ACTIVE_TOL, FEAS_TOL, ROUND_TOL, ROW_ZERO, Rows, Terms
+from .working_set import resolve
 
 if TYPE_CHECKING:
     from .filter import SafetyFilter
@@ -86,12 +88,17 @@ def fast_filter(flt: SafetyFilter, x, yaw, kin, u0, ul, obs, t0) -> FilterResult
 def _exact_qp(flt: SafetyFilter, T, norms, h, gap, u0, ul, t0) -> FilterResult | None:
     """The QP's optimum over the rows ``T = [c0; G^T]`` (``norms``: ``||G_i||``), verified.
 
-    DAQP warm started on the unit-norm rows, accepted when every row holds within
-    ``SafetyFilter._verify``'s tolerance. None: infeasible (the workspace's
-    ``last_infeasible``) or not verified.
+    First the last optimum's working set re-solved (``working_set``: accepted as a KKT point
+    within DAQP's primal tolerance), else DAQP warm started on the unit-norm rows (accepted
+    when every row holds within ``SafetyFilter._verify``'s tolerance). None: infeasible (the
+    workspace's ``last_infeasible``) or not verified.
     """
     cur = flt._cur
     qp = flt._dense.get(len(norms))
+    if qp.working_set:
+        res = _working_set(flt, qp, T, norms, h, gap, ul, t0)
+        if res is not None:
+            return res
     lo_l, hi_l = cur.lo_l, cur.hi_l
     Tn = T / norms  # [-bn; Gn^T]: unit-norm rows Gn u >= bn
     np.negative(Tn[0], out=qp.row_lower)
@@ -105,6 +112,40 @@ def _exact_qp(flt: SafetyFilter, T, norms, h, gap, u0, ul, t0) -> FilterResult |
     if not z.min() >= -tol:  # every unit-norm row holds (as SafetyFilter._verify)
         return None
     return _result(np.array(uu), uu, _ACTIVE, h, con, z, gap, cur, "active_set", t0)
+
+
+def _working_set(flt: SafetyFilter, qp, T, norms, h, gap, ul, t0) -> FilterResult | None:
+    """The optimum from the last one's working set (``working_set``), or None.
+
+    The set re-solved; a negative multiplier drops its constraint, a violated row (the most
+    violated) joins a set of fewer than ``m``; at most three sets. Accepted only as a KKT
+    point: multipliers >= 0, every row and limit within DAQP's primal tolerance.
+    """
+    cur = flt._cur
+    lo_l, hi_l = cur.lo_l, cur.hi_l
+    tol = primal_tol(flt._umax)
+    ws = qp.working_set
+    for _ in range(3):
+        uu, lam = resolve(ws, T, ul, lo_l, hi_l, flt._w_inv_ws)
+        if uu is None:
+            if lam is None or len(ws) == 1:
+                return None
+            ws = ws[:lam.index(min(lam))] + ws[lam.index(min(lam)) + 1:]
+            continue
+        if not (all(map(le, [a - tol for a in lo_l], uu))
+                and all(map(le, uu, [b + tol for b in hi_l]))):
+            return None
+        uu = [min(max(v, a), b) for v, a, b in zip(uu, lo_l, hi_l, strict=True)]
+        con = np.array((1.0, *uu)) @ T
+        z = con / norms
+        worst = int(z.argmin())
+        if z[worst] >= -tol:  # KKT: every row holds (as DAQP would accept it)
+            qp.working_set = ws
+            return _result(np.array(uu), uu, _ACTIVE, h, con, z, gap, cur, "active_set", t0)
+        if len(ws) >= len(ul) or worst in ws:
+            return None
+        ws = (*ws, worst)
+    return None
 
 
 def one_row(flt: SafetyFilter, row, u0, ul, t0) -> FilterResult | None:

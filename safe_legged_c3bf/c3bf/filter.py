@@ -21,7 +21,9 @@ Solution strategy (every path returns the exact optimum of that problem, or says
    last call's working set (``dense_qp``; ``'active_set'``). It ends with the optimum (KKT
    point of a strictly convex QP) or with a certificate of infeasibility (then step 5).
    Constraint rows are scaled to unit norm (same feasible set, better conditioning). The
-   answer is verified (every row within 1e-9).
+   answer is verified (every row within 1e-9). On the fast path the last optimum's working
+   set is re-solved first (``working_set``, at most ``m`` constraints on floats) and taken
+   when it is a KKT point within DAQP's own tolerance: DAQP's answer without the call.
 4. Fallback, and always with ``method='qp'``: OSQP (osqp 1.x). One solver object per problem
    size is set up once with a fixed sparsity pattern and then only updated (``q``, ``l``,
    ``u``, ``Ax``) and warm started. Rows that cannot bind inside the input box are
