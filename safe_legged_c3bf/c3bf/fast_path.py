@@ -132,20 +132,36 @@ def _working_set(flt: SafetyFilter, qp, T, norms, h, gap, ul, t0) -> FilterResul
                 return None
             ws = ws[:lam.index(min(lam))] + ws[lam.index(min(lam)) + 1:]
             continue
-        if not (all(map(le, [a - tol for a in lo_l], uu))
-                and all(map(le, uu, [b + tol for b in hi_l]))):
+        uu = _within(uu, lo_l, hi_l, tol)
+        if uu is None:
             return None
-        uu = [min(max(v, a), b) for v, a, b in zip(uu, lo_l, hi_l, strict=True)]
-        con = np.array((1.0, *uu)) @ T
+        uv = np.array((1.0, *uu))
+        con = uv @ T
         z = con / norms
         worst = int(z.argmin())
         if z[worst] >= -tol:  # KKT: every row holds (as DAQP would accept it)
             qp.working_set = ws
-            return _result(np.array(uu), uu, _ACTIVE, h, con, z, gap, cur, "active_set", t0)
+            return _result(uv[1:], uu, _ACTIVE, h, con, z, gap, cur, "active_set", t0)
         if len(ws) >= len(ul) or worst in ws:
             return None
         ws = (*ws, worst)
     return None
+
+
+def _within(u, lo_l, hi_l, tol: float) -> list[float] | None:
+    """``u`` clipped to the limits if it is within ``tol`` of them, else None."""
+    out = []
+    for v, a, b in zip(u, lo_l, hi_l, strict=True):
+        if v < a:
+            if v < a - tol:
+                return None
+            v = a
+        elif v > b:
+            if v > b + tol:
+                return None
+            v = b
+        out.append(v)
+    return out
 
 
 def one_row(flt: SafetyFilter, row, u0, ul, t0) -> FilterResult | None:
