@@ -41,6 +41,7 @@ __all__ = [
     "products",
     "reference_directions",
     "row_barrier_terms",
+    "row_rows",
 ]
 
 PLANE_AXES = np.array([[0, 1], [0, 2]], dtype=np.intp)
@@ -219,27 +220,16 @@ def _barrier_terms(kin, center, velocity, radius, plane, v_eps) -> BarrierTerms:
     return _terms_in_plane(P, V, A, B, center, velocity, radius, v_eps)
 
 
-def _terms_in_plane(P, V, A, B, center, velocity, radius, v_eps, e=None) -> BarrierTerms:
-    """:class:`BarrierTerms` from in-plane body-point kinematics, through :func:`cone_rows`.
-
-    ``e``: the low-speed directions of :func:`row_barrier_terms` (None: the smooth
-    regularisation everywhere).
-    """
+def _terms_in_plane(P, V, A, B, center, velocity, radius, v_eps) -> BarrierTerms:
+    """:class:`BarrierTerms` from in-plane body-point kinematics, through :func:`cone_rows`."""
     r = np.asarray(radius, dtype=float)
     p = np.asarray(center, dtype=float) - P
     v = np.asarray(velocity, dtype=float) - V
-    a_rel, b_rel = -A, -B
-    sq, pw, vw = products(p, v, a_rel, b_rel)
-    direction = None
-    if e is not None:
-        eab = np.moveaxis(np.einsum("...k,...kj->...j", e, np.concatenate(
-            [a_rel[..., None], b_rel], -1)), -1, 0)
-        direction = ((e * v).sum(-1), eab, (e * e).sum(-1))
+    sq, pw, vw = products(p, v, -A, -B)
     off = np.zeros_like(sq)
     off[0] = r * r
-    t = cone_rows(sq, pw, vw, off, v_eps, direction=direction)
-    lg = np.moveaxis(t.rows[1:], 0, -1)
-    return BarrierTerms(t.h, t.rows[0], lg, p, v, t.clearance)
+    t = cone_rows(sq, pw, vw, off, v_eps)
+    return BarrierTerms(t.h, t.rows[0], np.moveaxis(t.rows[1:], 0, -1), p, v, t.clearance)
 
 
 def plane_take(arr, axes: np.ndarray, rowwise: bool) -> np.ndarray:
@@ -274,12 +264,35 @@ def row_barrier_terms(kin: PointKinematics, center, velocity, radius, plane, v_e
     on the far side of ``v`` (its linearisation at a tiny ``v`` is a half-plane through 0).
     ``e`` is held constant: ``dh/dp = v + <e, v> p / s``, ``dh/dv = p + s e`` there.
     """
-    axes = PLANE_AXES[np.asarray(plane, dtype=np.intp)]
-    P = np.take_along_axis(kin.position, axes, -1)
-    V = np.take_along_axis(kin.velocity, axes, -1)
-    A = np.take_along_axis(kin.accel_drift, axes, -1)
-    B = np.take_along_axis(kin.accel_input, axes[:, :, None], -2)  # (n, 2, m)
-    return _terms_in_plane(P, V, A, B, center, velocity, radius, v_eps, direction)
+    t, F, _ = row_rows(kin, center, velocity, radius, plane, v_eps, direction)
+    lg = t.rows[1:].T
+    return BarrierTerms(t.h, t.rows[0], lg, F[0].T, F[1].T, t.clearance)
+
+
+def row_rows(kin: PointKinematics, center, velocity, radius, plane, v_eps, direction=None):
+    """:func:`row_barrier_terms` as ``(ConeRows, F, Y)`` (coordinate-major, as ``rows.PointRows``).
+
+    ``F`` ``(3 + m, 2, n)``: ``p_rel``, ``v_rel``, ``a_rel``, ``b_rel`` of every row in its
+    plane; ``Y`` ``(2, 3 + m, n)``: the inner products of ``F[:2]`` with ``F``.
+    """
+    n = len(plane)
+    axes = PLANE_AXES[np.asarray(plane, dtype=np.intp)]  # (n, 2)
+    K = np.concatenate([kin.position[..., None], kin.velocity[..., None],
+                        kin.accel_drift[..., None], kin.accel_input], -1)  # (n, 3, 3 + m)
+    F = np.negative(K[np.arange(n)[:, None], axes].T, order="C")  # -P, -V, a_rel, b_rel
+    F[0] += np.asarray(center, dtype=float).T
+    F[1] += np.asarray(velocity, dtype=float).T
+    Y = np.einsum("aki,bki->abi", F[:2], F)
+    e = None
+    if direction is not None:
+        ed = np.einsum("ki,bki->bi", np.asarray(direction, dtype=float).T, F[1:])
+        e = (ed[0], ed[1:], np.einsum("ik,ik->i", direction, direction))
+    r = np.asarray(radius, dtype=float)
+    off = np.zeros((2, n))
+    off[0] = r * r
+    stride = Y.shape[1] + 1
+    sq = Y.reshape(2 * (stride - 1), n)[::stride]  # [||p||^2, ||v||^2]
+    return cone_rows(sq, Y[0, 1:], Y[1, 1:], off, v_eps, direction=e), F, Y
 
 
 def reference_directions(kin: PointKinematics, center, velocity, plane, u_ref,
@@ -289,9 +302,9 @@ def reference_directions(kin: PointKinematics, center, velocity, plane, u_ref,
     Under ``u_ref``: ``c_dot - (V + (a_drift + B u_ref) horizon)``, zero where it vanishes.
     """
     axes = PLANE_AXES[np.asarray(plane, dtype=np.intp)]
-    V = np.take_along_axis(kin.velocity, axes, -1)
+    rows = np.arange(len(axes))[:, None]
     acc = kin.accel_drift + kin.accel_input @ np.asarray(u_ref, dtype=float)
-    d = np.asarray(velocity, dtype=float) - V - horizon * np.take_along_axis(acc, axes, -1)
+    d = np.asarray(velocity, dtype=float) - kin.velocity[rows, axes] - horizon * acc[rows, axes]
     norm = np.sqrt((d * d).sum(-1))
     return d / np.where(norm > 1e-12, norm, np.inf)[:, None]
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from .geometry import Obstacles
 from .inside import INSIDE_REL_CLEARANCE
-from .lie import S_MIN, cone_rows, row_barrier_terms
+from .lie import S_MIN, cone_rows, row_rows
 from .osqp_qp import OSQP_INF
 
 __all__ = [
@@ -152,10 +152,9 @@ def obstacle_terms(kin, obs: Obstacles, radius, v_eps: float, gamma: float, dire
     radius each row uses [m].
     """
     if point is None:  # row-wise kinematics (whole-body filter, ``body_rows``)
-        t = row_barrier_terms(kin, obs.center, obs.velocity, radius, obs.plane, v_eps,
-                              direction)
-        gap = np.sqrt((t.p_rel * t.p_rel).sum(-1)) - obs.radius
-        return Terms(t.h, t.lf_h + gamma * t.h, t.lg_h, t.clearance, gap)
+        t, _, Y = row_rows(kin, obs.center, obs.velocity, radius, obs.plane, v_eps, direction)
+        return Terms(t.h, t.rows[0] + gamma * t.h, np.ascontiguousarray(t.rows[1:].T),
+                     t.clearance, np.sqrt(Y[0, 0]) - obs.radius)
     Y = point.products(kin)
     off = np.zeros((2, len(obs)))
     off[0] = radius * radius
