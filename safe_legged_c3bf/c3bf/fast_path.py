@@ -67,10 +67,11 @@ def fast_filter(flt: SafetyFilter, x, yaw, kin, u0, ul, obs, t0) -> FilterResult
             return None  # NaN or inf (or the sum overflowing): the general path checks each
         con = np.array((1.0, *ul)) @ T  # c0 + G u_ref
         cur = flt._cur
-        if con.min() >= 0.0 and all(map(le, cur.lo_l, ul)) and all(map(le, ul, cur.hi_l)):
+        if con[con.argmin()] >= 0.0 and all(map(le, cur.lo_l, ul)) and all(
+                map(le, ul, cur.hi_l)):  # (x[x.argmin()]: x.min(), NaN too, for less)
             return _result(u0.copy(), ul, _INACTIVE, h, con, None, gap, cur, "none", t0)
     norms = np.hypot(T[1], T[2]) if len(T) == 3 else np.sqrt(np.einsum("ki,ki->i", T[1:], T[1:]))
-    if not norms.min() > ROW_ZERO:
+    if not norms[norms.argmin()] > ROW_ZERO:
         return None  # a row u cannot move (or NaN): the general path
     res = _exact_qp(flt, T, norms, h, gap, u0, ul, t0)
     if res is not None:
@@ -109,7 +110,7 @@ def _exact_qp(flt: SafetyFilter, T, norms, h, gap, u0, ul, t0) -> FilterResult |
     con = np.array((1.0, *uu)) @ T
     z = con / norms  # Gn u - bn
     tol = FEAS_TOL * (1.0 + math.hypot(*uu)) + ROUND_TOL * flt._umax
-    if not z.min() >= -tol:  # every unit-norm row holds (as SafetyFilter._verify)
+    if not z[z.argmin()] >= -tol:  # every unit-norm row holds (as SafetyFilter._verify)
         return None
     return _result(np.array(uu), uu, _ACTIVE, h, con, z, gap, cur, "active_set", t0)
 

@@ -117,7 +117,7 @@ def cone_rows(sq, pw, vw, off, v_eps: float, gate=None, direction=None):
     """
     X = sq - off  # [clearance, ||v||^2]
     if gate is not None:
-        if np.less(X, gate).any():
+        if np.count_nonzero(np.less(X, gate)):  # (cheaper than .any() on small arrays)
             return None
         sr = np.sqrt(X)  # [s, rho]: s >= S_MIN and rho > 0
         rq = sr / sr[::-1]  # [s / rho (= s k = ratio), rho / s (= q)]
