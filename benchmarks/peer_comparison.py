@@ -10,7 +10,8 @@ constraints), the rest hold with margin at the reference and at the answer. Ours
 Each call perturbs the state slightly (consecutive odometry samples: warm starts realistic).
 Every library is called on the same state in turn (interleaved: machine noise hits all alike)
 for ``--calls`` calls per case after a warm-up; the time is one whole call (barrier terms and
-QP), as numpy out.
+QP), as numpy out. Outside the timing, every 10th of our answers is compared with OSQP at
+tolerances 1e-12 on the same rows ("ours vs tight OSQP").
 
 Peers (when installed): cbfpy 0.1.0 with its default solver (qpax, relaxed QP, tolerance
 1e-3) and with ElastiQP (``backend='elastiqp'``, tolerance 1e-5, the loosest its config does
@@ -171,6 +172,26 @@ def cbfpy_filter(obs: Obstacles, backend: str, tol: float):
 PEERS = {"cbfpy (qpax)": ("qpax", 1e-3), "cbfpy (ElastiQP)": ("elastiqp", 1e-5)}
 
 
+# ---------------------------------------------------------------------------- reference
+def osqp_reference(obs: Obstacles, x, u_ref):
+    """The same QP (the filter's rows at ``x``, unit norm) by OSQP at tolerances 1e-12,
+    polished: ``u``, or None unless OSQP reports it solved."""
+    import osqp
+    import scipy.sparse as sp
+
+    t = c3bf_lie_derivatives(MODEL, x, obs.center, obs.velocity, obs.radius, obs.plane,
+                             v_eps=0.0)
+    norms = np.linalg.norm(t.lg_h, axis=1)
+    A, b = t.lg_h / norms[:, None], -(t.lf_h + GAMMA * t.h) / norms
+    s = osqp.OSQP()
+    s.setup(sp.csc_matrix(np.eye(2)), -u_ref, sp.csc_matrix(np.vstack([A, np.eye(2)])),
+            np.r_[b, U_MIN], np.r_[np.full(len(b), np.inf), U_MAX], verbose=False,
+            eps_abs=1e-12, eps_rel=1e-12, eps_prim_inf=1e-14, max_iter=400000,
+            polishing=True, polish_refine_iter=20)
+    res = s.solve(raise_error=False)
+    return res.x if res.info.status == "solved" else None
+
+
 # ---------------------------------------------------------------------------- timing
 def run_case(n: int, calls: int, with_peers: bool, warmup: int = 50) -> dict:
     """Interleaved timing of every library on one clutter of ``n`` obstacles."""
@@ -199,8 +220,14 @@ def run_case(n: int, calls: int, with_peers: bool, warmup: int = 50) -> dict:
             key = f"{res.status.value}/{res.solver}"
             paths[key] = paths.get(key, 0) + 1
     violated = int((_constraints(obs.center, obs.radius, U_REF)[1] < 0).sum())
+    # Outside the timing: our answers against a tight OSQP of the same rows (every 10th call).
+    du_osqp = 0.0
+    for x, u in zip(xs[warmup::10], answers["ours"][::10], strict=True):
+        ref = osqp_reference(obs, x, U_REF)
+        if ref is not None:
+            du_osqp = max(du_osqp, float(np.abs(u - ref).max()))
     return {"n": n, "times": times, "answers": answers, "compile": compile_s,
-            "paths": paths, "violated": violated}
+            "paths": paths, "violated": violated, "du_osqp": du_osqp}
 
 
 def report(case: dict) -> list[str]:
@@ -220,7 +247,8 @@ def report(case: dict) -> list[str]:
         )
     fastest = min((np.median(t[k]) for k in t if k != "ours"), default=None)
     mix = ", ".join(f"{k} {v}" for k, v in sorted(case["paths"].items()))
-    line = f"      rows violated by u_ref: {case['violated']}; our paths: {mix}"
+    line = (f"      rows violated by u_ref: {case['violated']}; our paths: {mix}; "
+            f"ours vs tight OSQP: max |du| {case['du_osqp']:.1e}")
     if fastest is not None:
         line += f"; ours / fastest peer = {ours_med / fastest:.2f}"
     out.append(line)

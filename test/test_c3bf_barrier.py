@@ -14,9 +14,9 @@ from safe_legged_c3bf.c3bf import (
     inflated_radius,
     regularized_speed,
 )
-from safe_legged_c3bf.c3bf.barrier import c3bf_gradient_scalar
-from safe_legged_c3bf.c3bf.lie import barrier_terms, barrier_terms_scalar
+from safe_legged_c3bf.c3bf.lie import barrier_terms
 from safe_legged_c3bf.c3bf.models import UnicycleHeightModel
+from safe_legged_c3bf.c3bf.rows import PointRows
 
 
 def paper_h(p, v, r):
@@ -105,26 +105,40 @@ def test_gradient_matches_finite_differences():
                 assert gv[i] == pytest.approx(fv, rel=1e-5, abs=1e-6)
 
 
-def test_scalar_versions_match_vectorised():
+def test_filter_rows_match_barrier_terms():
+    """The filter's rows of one body point (``rows.PointRows``: coordinate-major products,
+    with the gate of the fast path and without) equal the batched ``barrier_terms``."""
     rng = np.random.default_rng(4)
     model = UnicycleHeightModel(offset=0.2)
-    for _ in range(300):
-        p = rng.uniform(-4, 4, 2)
-        v = rng.uniform(-3, 3, 2)
-        r = rng.uniform(0.05, 0.95) * np.linalg.norm(p)
-        a = c3bf_gradient(p, v, r)
-        b = c3bf_gradient_scalar(*p, *v, r)
-        np.testing.assert_allclose([a[0], *a[1], *a[2], a[3]], b, rtol=1e-13, atol=1e-13)
+    gated = 0
+    for k in range(300):
         x = rng.uniform(-1, 1, 7)
-        c, cv, pl = rng.uniform(-5, 5, 2), rng.uniform(-2, 2, 2), int(rng.integers(0, 2))
-        kin = model.point_kinematics(x)
-        t = barrier_terms(kin, c[None], cv[None], np.array([0.3]), np.array([pl]))
-        h, lf, lg, cl = barrier_terms_scalar(
-            model.point_kinematics_tuple(x.tolist()), c[0], c[1], cv[0], cv[1], 0.3, pl
-        )
-        np.testing.assert_allclose([h, lf, *lg, cl],
-                                   [t.h[0], t.lf_h[0], *t.lg_h[0], t.clearance[0]],
-                                   rtol=1e-12, atol=1e-12)
+        n = int(rng.integers(1, 7))
+        c = rng.uniform(-5, 5, (n, 2))
+        cv = rng.uniform(-2, 2, (n, 2)) * (0.01 if k % 5 == 0 else 1.0)  # some slow rows
+        pl = rng.integers(0, 2, n) if k % 3 else np.full(n, k % 2)  # mixed and single plane
+        r = rng.uniform(0.1, 0.4, n)
+        if k % 7 == 0:  # one row inside its circle
+            P = model.point_kinematics(x).position
+            c[0] = P[[0, 1 + pl[0]]] + 0.5 * r[0]
+        obs = Obstacles(c, cv, r, pl)
+        for v_eps in (DEFAULT_V_EPS, 0.0):
+            t = barrier_terms(model.point_kinematics(x), obs.center, obs.velocity, obs.radius,
+                              obs.plane, v_eps)
+            point = PointRows(obs, 0.0, v_eps, 3)
+            Y = point.products(model.point_kinematics_tuple(x.tolist()))
+            for gate in (None, point.gate):
+                got = point.rows(Y, v_eps, gate)
+                if got is None:  # a row inside or slow: the gate refuses
+                    slow = (t.v_rel**2).sum(-1) < max(v_eps**2, 5e-324)
+                    assert (t.clearance < point.gate[0]).any() or slow.any()
+                    continue
+                gated += gate is not None
+                np.testing.assert_allclose(got.h, t.h, rtol=1e-13, atol=1e-13)
+                np.testing.assert_allclose(got.rows[0], t.lf_h, rtol=1e-12, atol=1e-12)
+                np.testing.assert_allclose(got.rows[1:].T, t.lg_h, rtol=1e-12, atol=1e-12)
+                np.testing.assert_allclose(got.clearance, t.clearance, rtol=1e-13, atol=1e-13)
+    assert gated > 300
 
 
 def test_inflated_radius():

@@ -21,7 +21,6 @@ from safe_legged_c3bf.c3bf import (
 )
 from safe_legged_c3bf.c3bf import filter as filter_mod
 from safe_legged_c3bf.c3bf import osqp_qp as qp_mod
-from safe_legged_c3bf.c3bf import rows as rows_mod
 from safe_legged_c3bf.c3bf.lie import PLANE_AXES
 
 
@@ -405,9 +404,9 @@ def test_unsolvable_hard_qp_falls_back_to_relaxed(monkeypatch):
 
 
 @pytest.mark.parametrize("model", MODELS, ids=lambda m: type(m).__name__)
-def test_per_obstacle_and_vectorised_rows_agree(model, monkeypatch):
-    """Up to SCALAR_TERMS_MAX obstacles the barrier terms are computed per obstacle on
-    floats; beyond, vectorised. Both give the same filter output (near, inside, far)."""
+def test_fast_and_general_paths_agree(model, monkeypatch):
+    """The fast path (``fast_path``: gated rows, DAQP or the closed form) and the general path
+    (every clamp and blend) give the same filter output (near, inside, far)."""
     rng = np.random.default_rng(17)
     m = model.n_u
     lo, hi = -np.full(m, 2.0), np.full(m, 2.5)
@@ -424,10 +423,11 @@ def test_per_obstacle_and_vectorised_rows_agree(model, monkeypatch):
             obs = Obstacles(c, obs.velocity, obs.radius, obs.plane)
         problems.append((x, u_ref * 3.0, obs))
     results = {}
-    for limit in (rows_mod.SCALAR_TERMS_MAX, 0):
-        monkeypatch.setattr(rows_mod, "SCALAR_TERMS_MAX", limit)
+    for fast in (True, False):
+        if not fast:
+            monkeypatch.setattr(filter_mod, "fast_filter", lambda *args: None)
         flt = SafetyFilter(model, u_min=lo, u_max=hi, margin=0.05)
-        results[limit] = [flt.filter(x, u, o, yaw=yaw) for x, u, o in problems]
+        results[fast] = [flt.filter(x, u, o, yaw=yaw) for x, u, o in problems]
     seen = set()
     for a, b in zip(*results.values(), strict=True):
         seen.add(a.status)

@@ -12,6 +12,7 @@ from safe_legged_c3bf.c3bf import (
     DEFAULT_V_EPS,
     HolonomicHeightModel,
     HolonomicModel,
+    Obstacles,
     Plane,
     UnicycleHeightModel,
     UnicycleModel,
@@ -21,8 +22,10 @@ from safe_legged_c3bf.c3bf import (
     c3bf_value,
 )
 from safe_legged_c3bf.c3bf.lie import PLANE_AXES
+from safe_legged_c3bf.c3bf.rows import PointRows
 
 N = 10_000
+N_FILTER = 3_000  # states checked through the filter's own rows (one call each)
 RTOL = 1e-6
 
 MODELS = [
@@ -91,15 +94,39 @@ def h_of(model, X, yaw, c, cv, r, plane, v_eps):
     return c3bf_value(c - P, cv - V, r, v_eps)
 
 
+def filter_terms(model, X, yaw, c, cv, r, plane, v_eps):
+    """``h``, ``Lf h``, ``Lg h`` the way the filter computes them: one state at a time, the
+    rows of ``rows.PointRows`` (gated as in ``fast_path``, else every clamp and blend)."""
+    h, lf, lg = np.empty(len(X)), np.empty(len(X)), np.empty((len(X), model.n_u))
+    gated = 0
+    for i in range(len(X)):
+        point = PointRows(Obstacles(c[i], cv[i], r[i], plane[i]), 0.0, v_eps, model.n_u)
+        kin = model.point_kinematics_tuple(X[i].tolist(), None if yaw is None else yaw[i])
+        Y = point.products(kin)
+        t = point.rows(Y, v_eps, point.gate)
+        gated += t is not None
+        t = t or point.rows(Y, v_eps)
+        h[i], lf[i], lg[i] = t.h[0], t.rows[0, 0], t.rows[1:, 0]
+    assert gated > len(X) // 2
+    return h, lf, lg
+
+
+@pytest.mark.parametrize("path", ["batched", "filter"])
 @pytest.mark.parametrize("v_eps", [DEFAULT_V_EPS, 0.0])
 @pytest.mark.parametrize("model", MODELS, ids=lambda m: repr(m))
-def test_lie_derivatives_match_central_differences(model, v_eps):
+def test_lie_derivatives_match_central_differences(model, v_eps, path):
     rng = np.random.default_rng(12345)
     X, yaw, c, cv, r, plane = random_scene(model, rng)
+    if path == "filter":
+        X, c, cv, r, plane = X[:N_FILTER], c[:N_FILTER], cv[:N_FILTER], r[:N_FILTER], \
+            plane[:N_FILTER]
+        yaw = None if yaw is None else yaw[:N_FILTER]
     terms = c3bf_lie_derivatives(
         model, X, c[:, None], cv[:, None], r[:, None], plane[:, None], yaw=yaw, v_eps=v_eps
     )
     h, lf, lg = terms.h[:, 0], terms.lf_h[:, 0], terms.lg_h[:, 0]
+    if path == "filter":
+        h, lf, lg = filter_terms(model, X, yaw, c, cv, r, plane, v_eps)
     np.testing.assert_allclose(h, h_of(model, X, yaw, c, cv, r, plane, v_eps), rtol=1e-12,
                                atol=1e-12)
     if v_eps == 0.0:
@@ -247,8 +274,11 @@ def test_paper_xz_lg_h_corrected_formula():
         s = np.sqrt(p @ p - r * r)
         w = p + v * s / np.linalg.norm(v)
         np.testing.assert_allclose(t.lg_h[0], [-w[0], -w[1]], rtol=1e-13)
-        # Lf h = <dh/dp, v_rel> (no drift acceleration): <v + |v| p / s, v>.
-        np.testing.assert_allclose(t.lf_h[0], (v + np.linalg.norm(v) * p / s) @ v, rtol=1e-13)
+        # Lf h = <dh/dp, v_rel> (no drift acceleration): <v + |v| p / s, v>, to rounding of
+        # its terms (they cancel where v_rel nearly follows the cone's edge).
+        terms = v @ v + np.linalg.norm(v) * abs(p @ v) / s
+        np.testing.assert_allclose(t.lf_h[0], (v + np.linalg.norm(v) * p / s) @ v, rtol=1e-13,
+                                   atol=1e-15 * terms)
 
 
 def test_horizontal_bar_couples_yaw_acceleration_when_offset_nonzero():

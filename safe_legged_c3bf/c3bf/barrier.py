@@ -45,12 +45,11 @@ Accuracy: a few ulps of the terms' magnitudes (``|p| |v|``, ``n_eps s``); for ve
 the other vector's norm as well.
 The public ones validate their inputs (finite, ``|x| <= domain.MAX_DERIVED``, radius > 0,
 ``v_eps`` in ``[0, 1e9]``) and raise :class:`~.errors.InvalidInputError` naming the bad entry;
-``barrier_terms`` and the filter call the unchecked ``_gradient``.
+The Lie derivatives (``lie.cone_rows``, every path of the filter) use the same formulas in
+inner-product form.
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 
@@ -59,7 +58,6 @@ from .domain import MAX_DERIVED, checked, checked_scalar
 __all__ = [
     "DEFAULT_V_EPS",
     "c3bf_gradient",
-    "c3bf_gradient_scalar",
     "c3bf_value",
     "regularized_speed",
 ]
@@ -147,26 +145,3 @@ def _gradient(p, v, r, v_eps, s_min=1e-12):
     dh_dp = v + (nv / np.maximum(s, s_min))[..., None] * p
     dh_dv = p + (s * k)[..., None] * v
     return h, dh_dp, dh_dv, s
-
-
-def c3bf_gradient_scalar(px, py, vx, vy, r, v_eps=DEFAULT_V_EPS, s_min=1e-12):
-    """Scalar (pure Python float) version of :func:`c3bf_gradient` for one obstacle.
-
-    Returns:
-        ``(h, dh_dpx, dh_dpy, dh_dvx, dh_dvy, s)`` as floats (same formulas and clamps).
-
-    """
-    s = math.sqrt(max(px * px + py * py - r * r, 0.0))
-    vv = vx * vx + vy * vy
-    ee = v_eps * v_eps
-    if vv < ee:
-        u = vv / ee
-        nv = v_eps * u * (1.875 + u * (-1.25 + 0.375 * u))
-        k = (3.75 + u * (-5.0 + 2.25 * u)) / v_eps
-    else:
-        nv = math.sqrt(vv)
-        k = 1.0 / nv if nv > 0.0 else 0.0
-    h = px * vx + py * vy + nv * s
-    q = nv / max(s, s_min)
-    ratio = s * k
-    return h, vx + q * px, vy + q * py, px + ratio * vx, py + ratio * vy, s

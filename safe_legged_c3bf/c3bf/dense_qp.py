@@ -18,6 +18,10 @@ start), which on consecutive control cycles is usually the answer's active set a
 start that ends anywhere but at the optimum (an infeasibility claim, cycling, the iteration
 limit) is re-solved once from scratch, so a warm start never changes the verdict.
 
+Each workspace also keeps the working set of its last optimum (:attr:`DenseQP.working_set`),
+which the filter re-solves first (``working_set``): when it still gives a KKT point, DAQP is
+not called at all.
+
 Tolerance: a row counts as violated beyond ``primal_tol = 1e-12 (1 + ||u0||)`` (rounded up to a
 power of ten), in the units of the rows (unit norm: input units). The caller verifies the
 answer against the rows (``SafetyFilter._verify``).
@@ -31,7 +35,7 @@ from typing import NamedTuple
 import daqp
 import numpy as np
 
-__all__ = ["DAQP_INF", "DenseQP", "DenseQPs", "QPResult", "solve_box_qp"]
+__all__ = ["DAQP_INF", "DenseQP", "DenseQPs", "QPResult", "primal_tol", "solve_box_qp"]
 
 DAQP_INF = 1e30
 """DAQP's infinity: a bound at or beyond it is no bound."""
@@ -87,33 +91,39 @@ class DenseQP:
         self._bl = np.empty(self.m + n)  # DAQP order: the m simple bounds, then the rows
         self._bu = np.full(self.m + n, DAQP_INF)
         self._box: tuple[list, list] = ([], [])  # the limits in _bl, _bu (as lists)
+        self._box_arrays: tuple = (None, None)  # ... and the read-only arrays they came from
         self._cold = np.zeros(self.m + n, dtype=np.int32)
         self._tol = _PRIMAL_TOL
         self._neg_w = -self.w  # f = -W u0
+        self.row_lower = self._bl[self.m:]
+        """The rows' right-hand sides ``b`` (a caller may write them here and pass
+        ``b=None``)."""
+        self.working_set: tuple[int, ...] = ()
+        """The working set of the last optimum found (``QPResult.active``), or empty."""
+        self.last_infeasible = False
+        """The last solve ended with DAQP's certificate of infeasibility."""
 
-    def solve(self, u0, a, b, lo, hi, warm=None) -> QPResult:
+    def solve(self, u0, a, b, lo, hi, warm=None, size=None) -> QPResult:
         """Solve with rows ``a u >= b`` (``b <= -DAQP_INF``: row off) and ``lo <= u <= hi``.
 
         Args:
             u0: ``(m,)`` reference.
             a: ``(n, m)`` rows (unit norm is best conditioned).
-            b: ``(n,)`` right-hand sides (finite, or ``-DAQP_INF`` to switch a row off).
+            b: ``(n,)`` right-hand sides (finite, or ``-DAQP_INF`` to switch a row off), or
+                None: already written to :attr:`row_lower`.
             lo: ``(m,)`` lower bounds (``-inf``: none).
             hi: ``(m,)`` upper bounds, ``lo <= hi`` (``inf``: none).
             warm: None (start from the previous solve's working set) or constraint indices
                 (as in ``QPResult.active``) to start from; invalid ones are ignored.
+            size: ``||u0||`` if the caller knows it.
 
         """
         m, bl, bu = self.m, self._bl, self._bu
-        box = (lo.tolist(), hi.tolist())
-        new_box = box != self._box
-        if new_box:
-            np.maximum(lo, -DAQP_INF, out=bl[:m])
-            np.minimum(hi, DAQP_INF, out=bu[:m])
-            self._box = box
-        bl[m:] = b
+        new_box = self._set_box(lo, hi)
+        if b is not None:
+            bl[m:] = b
         f = self._neg_w.dot(u0)
-        tol = _primal_tol(u0)
+        tol = primal_tol(math.hypot(*u0.tolist()) if size is None else size)
         model = self._model
         if model is None:
             sense = self._cold if warm is None else self._sense(warm)
@@ -131,19 +141,35 @@ class DenseQP:
         if flag not in _OPTIMAL and warm_started:
             model.update(sense=self._cold)  # the verdict of a cold start counts
             x, _, flag, info = model.solve()
+        self.last_infeasible = flag == _INFEASIBLE
         if flag not in _OPTIMAL:
-            return QPResult(None, flag == _INFEASIBLE, info["iterations"], flag)
+            return QPResult(None, self.last_infeasible, info["iterations"], flag)
         lam = info["lam"]
-        u = x.copy()
-        xs = x.tolist()
-        if not all(map(math.isfinite, xs)):
+        if not all(map(math.isfinite, x.tolist())):
             return QPResult(None, False, info["iterations"], flag)
         for j, lam_j in enumerate(lam[:m].tolist()):  # a limit in the working set holds
             if lam_j < 0.0:  # exactly (DAQP's x carries rounding there)
-                u[j] = bl[j]
+                x[j] = bl[j]
             elif lam_j > 0.0:
-                u[j] = bu[j]
-        return QPResult(u, False, info["iterations"], flag, lam)
+                x[j] = bu[j]
+        res = QPResult(x, False, info["iterations"], flag, lam)  # (x: a fresh array)
+        self.working_set = res.active
+        return res
+
+    def _set_box(self, lo, hi) -> bool:
+        """Write the limits ``lo``, ``hi`` if they changed: whether they did."""
+        if (lo is self._box_arrays[0] and hi is self._box_arrays[1]
+                and not (lo.flags.writeable or hi.flags.writeable)):
+            return False  # the same read-only arrays as last time
+        box = (lo.tolist(), hi.tolist())
+        self._box_arrays = (lo, hi)
+        if box == self._box:
+            return False
+        m = self.m
+        np.maximum(lo, -DAQP_INF, out=self._bl[:m])
+        np.minimum(hi, DAQP_INF, out=self._bu[:m])
+        self._box = box
+        return True
 
     def _update(self, model, f, a, new_box: bool, warm) -> bool:
         """Pass the new data to DAQP: whether the solve starts from a non-empty working set."""
@@ -178,9 +204,9 @@ class DenseQP:
         return sense
 
 
-def _primal_tol(u0) -> float:
+def primal_tol(norm_u0: float) -> float:
     """``1e-12 (1 + ||u0||)`` rounded up to a power of ten (few settings changes)."""
-    size = 1.0 + math.hypot(*u0.tolist())
+    size = 1.0 + norm_u0
     if size < 10.0:
         return _PRIMAL_TOL
     return _PRIMAL_TOL * 10.0 ** math.ceil(math.log10(min(size, 1e300)))
@@ -197,15 +223,18 @@ class DenseQPs:
         """Drop every workspace (the next solves start cold)."""
         self._qps.clear()
 
-    def solve(self, u0, a, b, lo, hi) -> QPResult:
-        """:meth:`DenseQP.solve` on the workspace for ``len(b)`` rows, warm started."""
-        n = len(b)
+    def get(self, n: int) -> DenseQP:
+        """The workspace for ``n`` rows (set up on first use; warm starts carry over)."""
         qp = self._qps.get(n)
         if qp is None:
             if len(self._qps) >= _MAX_WORKSPACES:
                 del self._qps[next(iter(self._qps))]
             qp = self._qps[n] = DenseQP(self.w, n)
-        return qp.solve(u0, a, b, lo, hi)
+        return qp
+
+    def solve(self, u0, a, b, lo, hi) -> QPResult:
+        """:meth:`DenseQP.solve` on the workspace for ``len(b)`` rows, warm started."""
+        return self.get(len(b)).solve(u0, a, b, lo, hi)
 
 
 def solve_box_qp(w, u0, a, b, lo, hi, warm=()) -> QPResult:

@@ -21,7 +21,9 @@ Solution strategy (every path returns the exact optimum of that problem, or says
    last call's working set (``dense_qp``; ``'active_set'``). It ends with the optimum (KKT
    point of a strictly convex QP) or with a certificate of infeasibility (then step 5).
    Constraint rows are scaled to unit norm (same feasible set, better conditioning). The
-   answer is verified (every row within 1e-9).
+   answer is verified (every row within 1e-9). On the fast path the last optimum's working
+   set is re-solved first (``working_set``, at most ``m`` constraints on floats) and taken
+   when it is a KKT point within DAQP's own tolerance: DAQP's answer without the call.
 4. Fallback, and always with ``method='qp'``: OSQP (osqp 1.x). One solver object per problem
    size is set up once with a fixed sparsity pattern and then only updated (``q``, ``l``,
    ``u``, ``Ax``) and warm started. Rows that cannot bind inside the input box are
@@ -49,10 +51,18 @@ raise :class:`~.errors.InvalidInputError` naming the entry, before any work. A r
 beyond ``domain.REF_RATIO_MAX`` x the input scale is answered only where the answer is exact
 (its clip), else refused the same way.
 
+Every row comes from one vectorised formula (``lie.cone_rows``). The usual call of the
+single-point filter (every row clear of its circle and of low relative speeds, ``method =
+'auto'``) takes ``fast_path``: the rows in a few array operations on the obstacle set's
+layout (``rows.PointRows``, kept while the same :class:`~.geometry.Obstacles` object comes
+back: an ``Obstacles`` is immutable, so nothing is validated or laid out again), then steps
+1-5 as above on them. Everything else takes the general path here, with the same formula's
+clamp and low-speed blend; both give the same answers.
+
 This module holds the policy (which step answers, statuses, messages); the parts live in
-``filter_inputs`` (validation), ``rows`` (barrier terms, unit-norm rows), ``closed_form``
-(step 2), ``dense_qp`` (step 3), ``osqp_qp`` (steps 4-5), ``inside`` (step 6) and
-``filter_outputs`` (the :class:`~.result.FilterResult`).
+``filter_inputs`` (validation), ``rows`` (barrier terms, unit-norm rows), ``fast_path`` (the
+usual call), ``closed_form`` (step 2), ``dense_qp`` (step 3), ``osqp_qp`` (steps 4-5),
+``inside`` (step 6) and ``filter_outputs`` (the :class:`~.result.FilterResult`).
 """
 
 from __future__ import annotations
@@ -68,10 +78,11 @@ import osqp
 from .barrier import DEFAULT_V_EPS
 from .body import RobotBody
 from .body_rows import body_rows, per_obstacle
-from .closed_form import cbf_closed_form, one_obstacle
+from .closed_form import cbf_closed_form
 from .dense_qp import DAQP_INF, DenseQPs
 from .domain import REF_RATIO_MAX, checked_scalar, far_reference_error
 from .errors import InvalidInputError
+from .fast_path import fast_filter, one_row
 from .filter_inputs import FLOAT_MAX, Bounds, check_bounds, check_weights, check_yaw, vector
 from .filter_outputs import failsafe_result, make_result
 from .geometry import Obstacles
@@ -80,7 +91,16 @@ from .lie import reference_directions
 from .models import PointKinematics, RobotModel
 from .osqp_qp import INFEASIBLE, RETRYABLE, QPSolvers
 from .result import FilterResult, FilterStatus
-from .rows import FEAS_TOL, ROUND_TOL, Rows, Terms, obstacle_terms, scale_rows, screen_rows
+from .rows import (
+    FEAS_TOL,
+    ROUND_TOL,
+    PointRows,
+    Rows,
+    Terms,
+    obstacle_terms,
+    scale_rows,
+    screen_rows,
+)
 from .solver_status import describe_osqp_status
 
 __all__ = ["DIRECTION_HORIZON", "SafetyFilter", "cbf_closed_form"]
@@ -156,6 +176,7 @@ class SafetyFilter:
         self._w_diag = bool((w == np.diag(np.diag(w))).all())  # W-projection on a box = clip
         self._w_inv = np.linalg.inv(w)
         self._w_inv_l = self._w_inv.tolist()
+        self._w_inv_ws = None if (w == np.eye(m)).all() else self._w_inv_l  # (``working_set``)
         self._bounds = check_bounds(u_min, u_max, m)
         self.u_min, self.u_max = self._bounds.lo, self._bounds.hi
         self._cur = self._bounds  # limits of the call in progress
@@ -175,6 +196,7 @@ class SafetyFilter:
         if body is not None and not isinstance(body, RobotBody):
             raise InvalidInputError("body must be a RobotBody or None")
         self.body = body
+        self._point: PointRows | None = None  # the last obstacle set's layout (``rows``)
 
     # ------------------------------------------------------------------ public API
     def filter(
@@ -226,11 +248,8 @@ class SafetyFilter:
             if self.body is not None:
                 return self._filter_body(x, u0, ul, obstacles, yaw, t0)
             kin = model.point_kinematics_tuple(xl, yaw)
-            if len(obstacles) == 1 and not far:
-                res = one_obstacle(
-                    kin, ul, obstacles, self.margin, self.gamma, self.v_eps, self._cur,
-                    self.method, self._w_inv_l, t0,
-                )
+            if not far and self.method == "auto" and len(obstacles):
+                res = fast_filter(self, x, yaw, kin, u0, ul, obstacles, t0)
                 if res is not None:
                     return res
             with np.errstate(all="ignore"):  # overflow etc. is detected and handled explicitly
@@ -251,6 +270,19 @@ class SafetyFilter:
         """Drop the cached OSQP and DAQP solvers (warm starts restart from scratch)."""
         self._qp.clear()
         self._dense.clear()
+        self._point = None
+
+    def _point_rows(self, obs: Obstacles) -> PointRows:
+        """The :class:`~.rows.PointRows` of ``obs``: kept while the same object comes back.
+
+        An :class:`~.geometry.Obstacles` is immutable (read-only arrays, validated once), so
+        the same object is the same set; any other object, even with equal numbers, gets a
+        new layout. The reference held here keeps ``obs`` alive (its identity unique).
+        """
+        point = self._point
+        if point is None or point.obs is not obs:
+            point = self._point = PointRows(obs, self.margin, self.v_eps, self.model.n_u)
+        return point
 
     # ------------------------------------------------------------------ internals
     def _filter_body(self, x, u0, ul, obs: Obstacles, yaw, t0) -> FilterResult:
@@ -274,20 +306,27 @@ class SafetyFilter:
         if row_obstacle is not None:  # whole body: the reference's directions at rest
             e = reference_directions(kin, obs.center, obs.velocity, obs.plane, u0,
                                      DIRECTION_HORIZON)
-        terms = obstacle_terms(kin, obs, radius, self.v_eps, self.model.n_u, e)
+        point = None if row_obstacle is not None else self._point_rows(obs)
+        terms = obstacle_terms(kin, obs, radius, self.v_eps, self.gamma, e, point)
         inside = terms.clearance < INSIDE_REL_CLEARANCE * radius * radius
-        if self.margin > 0.0 and inside.any():
+        band = self.margin > 0.0 and bool(inside.any())
+        if band:
             # Inside r + margin: use the exact barrier of the true radius r for those rows.
             radius = np.where(inside, obs.radius, radius)
-            terms = obstacle_terms(kin, obs, radius, self.v_eps, self.model.n_u, e)
+            terms = obstacle_terms(kin, obs, radius, self.v_eps, self.gamma, e, point)
             inside = terms.clearance < INSIDE_REL_CLEARANCE * radius * radius
-        G = terms.lg_h
-        c0 = terms.lf_h + self.gamma * terms.h  # constraint: G u + c0 >= 0
+        G, c0 = terms.G, terms.c0  # constraint: G u + c0 >= 0
         if not (np.isfinite(c0).all() and np.isfinite(G).all()):
             return self._failsafe(x, yaw, len(obs), t0, "non-finite barrier terms")
         if inside.any():
             return self._inside(x, u0, ul, yaw, kin, obs, radius, terms, inside, t0,
                                 row_obstacle)
+        if point is not None and len(c0) == 1 and not band and self.method == "auto" and not (
+                self._far):  # one row: INACTIVE or the closed form, as on the fast path
+            row = (terms.h[0], c0[0], G[0].tolist(), terms.clearance[0], terms.gap[0])
+            res = one_row(self, row, u0, ul, t0)
+            if res is not None:
+                return res
         return self._solve(x, u0, ul, yaw, terms, G, c0, t0)
 
     def _solve(self, x, u0, ul, yaw, terms: Terms, G, c0, t0) -> FilterResult:

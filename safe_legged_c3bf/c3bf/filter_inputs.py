@@ -96,6 +96,8 @@ def check_bounds(u_min, u_max, m: int) -> Bounds:
                 f"finite input limits must be within +-{MAX_MAGNITUDE:.0e} (use inf for none), "
                 f"got u_min={lo_l}, u_max={hi_l}"
             )
+    lo.setflags(write=False)  # (solvers may recognise unchanged limits by identity)
+    hi.setflags(write=False)
     return Bounds(lo, hi, lo_l, hi_l, all(map(math.isfinite, lo_l + hi_l)))
 
 

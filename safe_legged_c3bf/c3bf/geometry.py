@@ -177,16 +177,6 @@ class Obstacles:
         """The set of planes used by at least one obstacle."""
         return frozenset(map(Plane, set(self.plane.tolist())))
 
-    @cached_property
-    def as_lists(self) -> tuple[list, list, list, list]:
-        """``(center, velocity, radius, plane)`` as Python lists (for scalar fast paths)."""
-        return (
-            self.center.tolist(),
-            self.velocity.tolist(),
-            self.radius.tolist(),
-            self.plane.tolist(),
-        )
-
     @classmethod
     def empty(cls) -> Obstacles:
         """Return an empty obstacle set."""

@@ -42,13 +42,15 @@ the body point away from those centres (:func:`escape_input`).
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
 from .lie import PLANE_AXES, plane_take
 from .models import PointKinematics
-from .rows import Terms
+
+if TYPE_CHECKING:
+    from .rows import Terms
 
 __all__ = [
     "INSIDE_REL_CLEARANCE",
@@ -157,8 +159,8 @@ def inside_rows(
     """
     idx = np.flatnonzero(inside)
     rad = radial_terms(rows_of(kin, idx), obs.center[idx], obs.velocity[idx], obs.plane[idx])
-    G = terms.lg_h.copy()
-    c0 = terms.lf_h + gamma * terms.h
+    G = terms.G.copy()
+    c0 = terms.c0.copy()
     G[idx] = rad.lg
     c0[idx] = rad.lf + gamma * (rad.speed - exit_speed)
     h, gap = terms.h.copy(), terms.gap.copy()

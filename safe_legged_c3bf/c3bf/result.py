@@ -9,6 +9,9 @@ import numpy as np
 
 __all__ = ["FilterResult", "FilterStatus"]
 
+_NO_POINT = np.zeros(0, dtype=np.intp)  # FilterResult.point of the single-point filter
+_NO_POINT.setflags(write=False)  # (empty and read-only: one array serves every result)
+
 
 class FilterStatus(StrEnum):
     """What the filter did with the reference input."""
@@ -82,7 +85,7 @@ class FilterResult:
     solve_time: float
     message: str = ""
     clearance: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    point: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
+    point: np.ndarray = field(default_factory=lambda: _NO_POINT)
 
     @property
     def modified(self) -> bool:
