@@ -296,7 +296,11 @@ def _horizontal_piece(
         far += depth
     else:
         near -= depth
-    a = max(0.5 * (far - near), config.min_semi_axis) + config.size_margin
+    # No size margin on the depth (x): the filter covers a bar's x-z ellipse with one circle of
+    # its larger semi-axis, so 2 cm more depth would lower a round bar by 2 cm and close a
+    # passage the robot ducks through (quadruped_horizontal stalled at it); the filter's own
+    # safety_margin grows the bar, and the underside already errs low (free_space.underside).
+    a = max(0.5 * (far - near), config.min_semi_axis)
     bottom = min(float(z.min()), underside) if math.isfinite(underside) else float(z.min())
     b = max(0.5 * (float(z.max()) - bottom), config.min_semi_axis)
     extent = max(float(y.max() - y.min()) + 2.0 * config.size_margin, 2.0 * config.min_semi_axis)
