@@ -238,7 +238,7 @@ def test_in_plane_terms_use_the_plane_coordinates_only():
 
 
 def test_a_moving_bar_is_tested_in_its_x_z_plane():
-    """A horizontal bar that starts to move up (z) is a manoeuvre; a vertical obstacle's z is not."""
+    """A horizontal bar starting to move up (z) is a manoeuvre; a vertical obstacle's z is not."""
     for plane, expect in ((ObstaclePlane.HORIZONTAL, 1), (ObstaclePlane.VERTICAL, 0)):
         rng = np.random.default_rng(2)
         tracker = MultiObstacleTracker()

@@ -8,8 +8,8 @@ Usage::
 
 All obstacles are tracked with a 3D (x, y, z) constant-velocity Kalman filter in the odom
 frame, whatever their plane, and a manoeuvre detector that corrects the filter when an
-obstacle starts, stops or turns (:mod:`safe_legged_c3bf.perception.maneuver`).  Bad detections are dropped before association and counted
-by :class:`RejectionReason`.
+obstacle starts, stops or turns (:mod:`safe_legged_c3bf.perception.maneuver`).  Bad
+detections are dropped before association and counted by :class:`RejectionReason`.
 """
 
 from __future__ import annotations
