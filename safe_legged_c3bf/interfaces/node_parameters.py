@@ -8,9 +8,10 @@ at start-up all come from those classes; nothing is listed twice.
 
 A scenario's ``filter:``, ``tracker:``, ``controller:``, ``planner:`` and ``detector:``
 sections are parameter overrides of the safety filter, obstacle tracker, gait controller,
-reference planner and obstacle detector nodes (:data:`OVERRIDE_NODES`). rclpy ignores an override of a parameter a node never
-declared, so a misspelt key would silently do nothing: :mod:`safe_legged_c3bf.sim.scenario`
-checks the keys and value types against these classes when the file is loaded.
+reference planner and obstacle detector nodes (:data:`OVERRIDE_NODES`). rclpy ignores an
+override of a parameter a node never declared, so a misspelt key would silently do nothing:
+:mod:`safe_legged_c3bf.sim.scenario` checks the keys and value types against these classes
+when the file is loaded.
 
 ``use_sim_time`` is left out on purpose: every node of the graph must run on sim time.
 """
