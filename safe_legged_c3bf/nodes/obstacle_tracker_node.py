@@ -361,6 +361,7 @@ class ObstacleTrackerNode(Node):
             "tracks_confirmed": sum(1 for trk in tracks if trk.confirmed),
             "tracks_tentative": sum(1 for trk in tracks if not trk.confirmed),
             "obstacles_published": self._last_count,
+            "maneuvers_detected": self.tracker.maneuver_count,
             "detection_messages": self.detection_messages,
             "rejected_total": total,
             **{f"rejected_{reason}": n for reason, n in counts.items()},

@@ -13,21 +13,36 @@ measures the position only, ``z = p + w`` with ``w ~ N(0, sigma^2 I)``.
 
 The filter keeps its own time stamp so that it can be predicted to absolute times, and it
 offers side-effect free predictions (:meth:`ConstantVelocityKalmanFilter.state_at`) for
-publishing tracks at an arbitrary time.
+publishing tracks at an arbitrary time. :meth:`~ConstantVelocityKalmanFilter.snapshot` and
+:meth:`~ConstantVelocityKalmanFilter.restore` save and set the whole estimate, so that recent
+updates can be processed again under another hypothesis (the manoeuvre detector,
+:mod:`safe_legged_c3bf.perception.maneuver`).
 """
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
 __all__ = [
     "ConstantVelocityKalmanFilter",
+    "FilterState",
     "process_noise",
     "transition_matrix",
 ]
+
+
+@dataclass(frozen=True, eq=False)
+class FilterState:
+    """A saved estimate: state ``x = [p, v]``, its covariance ``P`` and its time stamp (s)."""
+
+    x: np.ndarray
+    P: np.ndarray
+    time: float
 
 
 def _check_positive(name: str, value: float, allow_zero: bool = False) -> float:
@@ -178,6 +193,42 @@ class ConstantVelocityKalmanFilter:
         """Copy of the velocity covariance block."""
         d = self._dim
         return self._P[d:, d:].copy()
+
+    # ------------------------------------------------------------------ save / set
+    def copy(self) -> ConstantVelocityKalmanFilter:
+        """An independent filter with the same estimate, time and noise parameters."""
+        other = copy.copy(self)
+        other._x = self._x.copy()
+        other._P = self._P.copy()
+        return other
+
+    def snapshot(self) -> FilterState:
+        """The current estimate (copies), for :meth:`restore`."""
+        return FilterState(self._x.copy(), self._P.copy(), self._time)
+
+    def restore(self, state: FilterState) -> None:
+        """Set the estimate to ``state`` (same dimension; finite; symmetric covariance kept)."""
+        x = np.asarray(state.x, dtype=float).reshape(-1)
+        P = np.asarray(state.P, dtype=float)
+        n = 2 * self._dim
+        if x.shape != (n,) or P.shape != (n, n):
+            raise ValueError(f"state must have {n} entries and covariance shape ({n}, {n})")
+        if not (np.all(np.isfinite(x)) and np.all(np.isfinite(P)) and math.isfinite(state.time)):
+            raise ValueError("state, covariance and time must be finite")
+        self._x = x.copy()
+        self._P = 0.5 * (P + P.T)
+        self._time = float(state.time)
+
+    def add_velocity_variance(self, variance: float, axes: Sequence[int]) -> None:
+        """Add ``variance`` (m^2/s^2) to the velocity variance of each coordinate in ``axes``.
+
+        Models an unknown change of velocity (per axis, independent) since the last update.
+        """
+        variance = _check_positive("variance", variance, allow_zero=True)
+        for a in axes:
+            if not 0 <= int(a) < self._dim:
+                raise ValueError(f"axis {a!r} out of range for {self._dim} coordinates")
+            self._P[self._dim + int(a), self._dim + int(a)] += variance
 
     # ------------------------------------------------------------------ prediction
     def state_at(self, t: float) -> tuple[np.ndarray, np.ndarray]:

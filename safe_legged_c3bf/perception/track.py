@@ -6,6 +6,11 @@ Data types (what the ROS node converts messages to and from):
 * :class:`Detection` -- one measured obstacle ellipse (odom frame).
 * :class:`TrackedObstacle` -- an immutable snapshot of a track predicted to a given time.
 
+Filter (:class:`Track`): a constant-velocity Kalman filter with a low process noise, so that
+static and steadily moving obstacles get steady velocities, and a manoeuvre detector
+(:mod:`safe_legged_c3bf.perception.maneuver`) that corrects it within a few detections when
+the obstacle starts, stops or turns.
+
 Lifecycle (:class:`Track`): a track is born *tentative* from an unassociated detection,
 becomes *confirmed* once it has been hit in at least ``confirm_hits`` of the last
 ``confirm_window`` tracker cycles, *coasts* (is predicted with growing covariance) through
@@ -24,13 +29,16 @@ from enum import IntEnum, StrEnum
 import numpy as np
 
 from safe_legged_c3bf.interfaces.typed_params import (
+    FLAG,
     NON_NEGATIVE,
     POSITIVE,
     TypedParams,
     at_least,
+    interval,
     param,
 )
 from safe_legged_c3bf.perception.kalman import ConstantVelocityKalmanFilter
+from safe_legged_c3bf.perception.maneuver import ManeuverDetector
 
 __all__ = [
     "Detection",
@@ -39,6 +47,7 @@ __all__ = [
     "TrackConfig",
     "TrackStatus",
     "TrackedObstacle",
+    "plane_axes",
 ]
 
 
@@ -172,10 +181,10 @@ class TrackConfig(TypedParams):
     """
 
     accel_psd: float = param(
-        0.001, "m^2/s^3", "Kalman process noise, white acceleration spectral density. 0.001 "
-        "keeps the velocity of static/constant-velocity obstacles within about 0.02 m/s RMS "
-        "with 2 cm measurement noise at 30 Hz; a sharp velocity change (0.5 m/s turned by 90 "
-        "degrees) is followed within about 1 s", NON_NEGATIVE,
+        0.0001, "m^2/s^3", "Kalman process noise, white acceleration spectral density. Low, so "
+        "that a static obstacle's speed stays about 0.01 m/s RMS (0.025 m/s at most) with 2 cm "
+        "measurement noise at 10 Hz; starts, stops and turns are followed by the manoeuvre "
+        "detector (maneuver_*), without it only after 1.5-2 s", NON_NEGATIVE,
     )
     measurement_std: float = param(0.02, "m", "position measurement noise per axis", POSITIVE)
     initial_velocity_std: float = param(
@@ -204,7 +213,41 @@ class TrackConfig(TypedParams):
     )
     velocity_std_threshold: float = param(
         0.2, "m/s", "largest velocity standard deviation (square root of the largest "
-        "eigenvalue of the velocity covariance) for velocity_estimated to be true", POSITIVE,
+        "eigenvalue of the velocity covariance) for velocity_estimated to be true. A track "
+        "whose velocity was estimated keeps the flag through a manoeuvre correction until its "
+        "velocity is this accurate again", POSITIVE,
+    )
+    maneuver_detection: bool = param(
+        True, "-", "detect starts, stops and turns in the recent innovations and correct the "
+        "velocity at once (flag; perception/maneuver.py)", FLAG,
+    )
+    maneuver_false_alarm: float = param(
+        1e-6, "-", "probability (unitless) that the chi-square test (2 dof, in the obstacle's "
+        "plane) of one velocity-change onset passes while the velocity is constant; 1e-6 is a "
+        "threshold of 27.6 on the drop of the NIS sum", interval(0.0, 1.0),
+    )
+    maneuver_window: int = param(
+        5, "-", "updates (a count) kept for the manoeuvre test: the onsets searched; "
+        ">= maneuver_min_updates", at_least(1),
+    )
+    maneuver_min_updates: int = param(
+        3, "-", "least number of updates (a count) after an onset for a manoeuvre to be "
+        "declared; with 3 a single outlying detection cannot cause one", at_least(1),
+    )
+    maneuver_velocity_std: float = param(
+        1.0, "m/s", "standard deviation, per in-plane axis, of the velocity change allowed at "
+        "an onset (the velocity variance added when the updates are processed again)",
+        POSITIVE,
+    )
+    maneuver_fit_probability: float = param(
+        0.01, "-", "chi-square tail probability (unitless) every innovation after the first "
+        "of a manoeuvre hypothesis must pass (NIS below 9.2 for 0.01): outliers do not fit a "
+        "change of velocity", interval(0.0, 1.0),
+    )
+    maneuver_noise_window: int = param(
+        60, "-", "updates (a count) whose median NIS, relative to the chi-square median, "
+        "scales the manoeuvre thresholds when above one (detections noisier than "
+        "measurement_std); 0 disables the scaling", at_least(0),
     )
 
     def __post_init__(self) -> None:
@@ -212,12 +255,30 @@ class TrackConfig(TypedParams):
         self.validate()
 
     def check_together(self) -> None:
-        """The confirmation rule needs confirm_hits <= confirm_window."""
+        """confirm_hits <= confirm_window; maneuver_min_updates <= maneuver_window."""
         if self.confirm_hits > self.confirm_window:
             raise ValueError(
                 f"confirm_hits/confirm_window: need confirm_hits <= confirm_window, got "
                 f"{self.confirm_hits!r}, {self.confirm_window!r}"
             )
+        if self.maneuver_min_updates > self.maneuver_window:
+            raise ValueError(
+                f"maneuver_min_updates/maneuver_window: need maneuver_min_updates <= "
+                f"maneuver_window, got {self.maneuver_min_updates!r}, {self.maneuver_window!r}"
+            )
+
+    def maneuver_detector(self) -> ManeuverDetector | None:
+        """A new manoeuvre detector with these parameters, None if maneuver_detection is off."""
+        if not self.maneuver_detection:
+            return None
+        return ManeuverDetector(
+            false_alarm=self.maneuver_false_alarm,
+            window=self.maneuver_window,
+            min_updates=self.maneuver_min_updates,
+            velocity_std=self.maneuver_velocity_std,
+            fit_probability=self.maneuver_fit_probability,
+            noise_window=self.maneuver_noise_window,
+        )
 
 
 @dataclass
@@ -227,6 +288,11 @@ class _Appearance:
     plane: ObstaclePlane
     extent: float
     source_id: str = field(default="")
+
+
+def plane_axes(plane: ObstaclePlane) -> tuple[int, int]:
+    """The two odom coordinates of an obstacle's plane: x-y (vertical) or x-z (horizontal)."""
+    return (0, 2) if plane == ObstaclePlane.HORIZONTAL else (0, 1)
 
 
 class Track:
@@ -260,6 +326,8 @@ class Track:
         self.consecutive_misses = 0
         self._history: deque[bool] = deque([True], maxlen=config.confirm_window)
         self._status = TrackStatus.TENTATIVE
+        self._maneuver = config.maneuver_detector()
+        self._held_estimated = False  # velocity_estimated kept through a manoeuvre correction
         self._check_confirmation()
 
     # ------------------------------------------------------------------ properties
@@ -288,6 +356,11 @@ class Track:
         """Plane of the most recent detection."""
         return self._appearance.plane
 
+    @property
+    def maneuvers(self) -> int:
+        """Manoeuvres (starts, stops, turns) detected and corrected so far."""
+        return self._maneuver.count if self._maneuver is not None else 0
+
     # ------------------------------------------------------------------ lifecycle
     def _check_confirmation(self) -> None:
         if self._status is TrackStatus.TENTATIVE and sum(self._history) >= self.config.confirm_hits:
@@ -300,9 +373,24 @@ class Track:
         return x[:3], S
 
     def update(self, detection: Detection, t: float) -> float:
-        """Correct the track with an associated detection at time ``t``; return its NIS."""
+        """Correct the track with an associated detection at time ``t``; return its NIS.
+
+        The NIS is the plain Kalman update's; a manoeuvre detected afterwards corrects the
+        estimate further (:mod:`safe_legged_c3bf.perception.maneuver`).
+        """
+        prior = self.kf.snapshot()
         self.kf.predict_to(max(float(t), self.kf.time))
-        nis = self.kf.update(np.asarray(detection.center, dtype=float).reshape(3))
+        z = np.asarray(detection.center, dtype=float).reshape(3)
+        estimated = self.velocity_estimated()
+        innovation, covariance = self.kf.innovation(z)
+        nis = self.kf.update(z)
+        axes = plane_axes(ObstaclePlane(detection.plane))
+        if self._maneuver is not None and self._maneuver.observe(
+            self.kf, prior, z, innovation, covariance, axes, test=estimated
+        ):
+            self._held_estimated = estimated
+        elif self._held_estimated and self._velocity_accurate(self.kf.velocity_covariance):
+            self._held_estimated = False
         source_id = str(detection.id) or self._appearance.source_id
         self._appearance = _Appearance(
             semi_axes=(float(detection.semi_axes[0]), float(detection.semi_axes[1])),
@@ -336,11 +424,21 @@ class Track:
 
     # ------------------------------------------------------------------ output
     def velocity_estimated(self, velocity_covariance: np.ndarray | None = None) -> bool:
-        """True when the velocity estimate is trustworthy (see :class:`TrackConfig`)."""
+        """True when the velocity estimate is trustworthy (see :class:`TrackConfig`).
+
+        A track whose velocity was estimated when a manoeuvre was corrected stays estimated
+        until its velocity is accurate again: its corrected velocity, though less certain (the
+        covariance says how much), is better than none.
+        """
         if self.hits < self.config.velocity_min_hits:
             return False
+        if self._held_estimated:
+            return True
         cov = self.kf.velocity_covariance if velocity_covariance is None else velocity_covariance
-        largest = float(np.linalg.eigvalsh(cov)[-1])
+        return self._velocity_accurate(cov)
+
+    def _velocity_accurate(self, velocity_covariance: np.ndarray) -> bool:
+        largest = float(np.linalg.eigvalsh(velocity_covariance)[-1])
         return largest <= self.config.velocity_std_threshold**2
 
     @property

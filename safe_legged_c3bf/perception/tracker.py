@@ -7,8 +7,9 @@ Usage::
     obstacles = tracker.tracks_at(t_now)     # confirmed tracks predicted to t_now
 
 All obstacles are tracked with a 3D (x, y, z) constant-velocity Kalman filter in the odom
-frame, whatever their plane.  Bad detections are dropped before association and counted
-by :class:`RejectionReason`.
+frame, whatever their plane, and a manoeuvre detector that corrects the filter when an
+obstacle starts, stops or turns (:mod:`safe_legged_c3bf.perception.maneuver`).  Bad
+detections are dropped before association and counted by :class:`RejectionReason`.
 """
 
 from __future__ import annotations
@@ -233,12 +234,18 @@ class MultiObstacleTracker:
         self._rejections: Counter[str] = Counter()
         self._robot_position: np.ndarray | None = None  # odom (m)
         self._robot_moving = False
+        self._maneuvers = 0
 
     # ------------------------------------------------------------------ state
     @property
     def rejection_counts(self) -> dict[str, int]:
         """Total number of rejected detections per :class:`RejectionReason` value."""
         return {reason.value: self._rejections[reason.value] for reason in RejectionReason}
+
+    @property
+    def maneuver_count(self) -> int:
+        """Manoeuvres (starts, stops, turns of obstacles) detected since construction."""
+        return self._maneuvers
 
     @property
     def tracks(self) -> list[Track]:
@@ -310,7 +317,9 @@ class MultiObstacleTracker:
         result = self._associate(valid, t)
         tracks = self._tracks
         for i, j in result.matches:
+            before = tracks[i].maneuvers
             tracks[i].update(valid[j], t)
+            self._maneuvers += tracks[i].maneuvers - before
         for i in result.unmatched_tracks:
             tracks[i].mark_missed()
         created: list[int] = []
