@@ -57,3 +57,34 @@ def test_node_process_exits_on_signal(signum, ros_executor, tmp_path):
             if proc.poll() is None:
                 proc.kill()
                 proc.wait()
+
+
+_SIGNALLED_WHILE_BUILT = """
+import os, signal, sys, time
+import rclpy
+from rclpy.node import Node
+from safe_legged_c3bf.nodes import ros_common
+
+class Slow(Node):
+    def __init__(self):
+        super().__init__("signalled_while_built")  # in the ROS graph from here on
+        os.kill(os.getpid(), signal.SIG{name})     # a launcher stops it now
+        deadline = time.monotonic() + 10.0
+        while rclpy.ok() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        self.declare_parameter("late", 1.0)        # publishes on a shut-down context: raises
+
+sys.exit(ros_common.run_node(Slow, [sys.argv[0]]))
+"""
+
+
+@pytest.mark.parametrize("name", ["TERM", "INT"])
+def test_a_signal_while_the_node_is_built_is_a_clean_exit(name):
+    """A node is in the graph before its constructor ends; a signal then must not be exit 1."""
+    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    proc = subprocess.run(
+        [sys.executable, "-c", _SIGNALLED_WHILE_BUILT.replace("{name}", name)],
+        env=env, capture_output=True, text=True, timeout=60,
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "Traceback" not in proc.stderr, proc.stderr[-2000:]

@@ -136,7 +136,10 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
 
     The executor waits at most SPIN_WAKE_PERIOD at a time: a node process once stayed in
     ``executor.spin()`` forever after SIGTERM (rclpy's signal guard condition woke it before
-    the context was shut down, and it went back to an endless wait).
+    the context was shut down, and it went back to an endless wait). An error raised after a
+    signal shut the context down (while the node was still being built, or during a spin) is
+    a clean exit: the node is in the ROS graph before its constructor has declared all its
+    parameters, and a launcher may stop it then.
     """
     rclpy.init(args=sys.argv if args is None else args)
     node = None
@@ -145,14 +148,12 @@ def run_node(factory: Callable[[], Node], args: list[str] | None = None) -> int:
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         while rclpy.ok():
-            try:
-                executor.spin_once(timeout_sec=SPIN_WAKE_PERIOD)
-            except Exception:
-                if rclpy.ok():
-                    raise
-                break  # a signal shut the context down during the call: a clean exit
+            executor.spin_once(timeout_sec=SPIN_WAKE_PERIOD)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except Exception:
+        if rclpy.ok():
+            raise
     finally:
         if node is not None:
             node.destroy_node()
