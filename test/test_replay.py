@@ -4,9 +4,9 @@ into the safety pipeline without the simulator, and the filter is scored against
 The recording (test/data/replay_walker.mcap, made by test/data/make_replay_recording.py): the
 A1 walks a free path beside a standing walker, which at t = 6 s starts to cross its path. The
 KPIs are printed (run pytest with -s to see them). Known shortfalls are strict expected
-failures: the tracker needs ~0.65 s to estimate the walker's velocity once it starts moving,
-so the filter's reaction to the cone entry and the filtered command's exit from the true cone
-are slower than their limits (issue #19).
+failures: at 10 Hz the tracker's manoeuvre detector declares the walker's start on the third
+displaced detection, so the filter reacts to the cone entry ~0.46 s after it and the filtered
+command leaves the true cone ~0.72 s after it, slower than their limits (issue #19).
 """
 
 from __future__ import annotations
