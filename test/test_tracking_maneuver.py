@@ -261,3 +261,41 @@ def test_noise_scale_follows_the_detection_jitter():
         scales[noise] = trk._maneuver.noise_scale
     assert scales[0.02] < 1.3
     assert 2.5 < scales[0.04] < 5.5
+
+
+def run_steps(seed, *, jump=0.08, every=6.0, duration=30.0, rate=10.0, noise=0.02):
+    """A static obstacle whose detected centre jumps by ``jump`` (m, random direction) every
+    ``every`` s and stays there, as a cluster seen from another side does; return the tracker
+    and the largest estimated planar speed (m/s)."""
+    rng = np.random.default_rng(seed)
+    offset = np.zeros(3)
+    tracker = MultiObstacleTracker()
+    fastest = 0.0
+    for k in range(int(round(duration * rate)) + 1):
+        t = k / rate
+        if k and k % int(round(every * rate)) == 0:
+            a = rng.uniform(0.0, 2.0 * math.pi)
+            offset = offset + jump * np.array([math.cos(a), math.sin(a), 0.0])
+        z = np.array([4.0, -2.0, 0.8]) + offset + rng.normal(0.0, noise, 3)
+        tracker.update([Detection(z, (0.25, 0.25))], t)
+        for o in tracker.tracks_at(t):
+            fastest = max(fastest, float(np.linalg.norm(o.velocity[:2])))
+    return tracker, fastest
+
+
+@pytest.mark.xfail(strict=True, reason="#19: a jump of a detected centre (a cluster seen from "
+                   "another side) is taken for a start: 8 cm jumps give speeds up to 0.67 m/s. "
+                   "Tried: a position-step hypothesis beside the velocity one; at 10 Hz with 2 cm "
+                   "noise three updates do not tell a step from a start without delaying starts")
+def test_a_jump_of_the_detected_centre_is_not_a_manoeuvre():
+    """8 cm jumps of a static obstacle's detected centre (2 cm noise, 10 Hz, 4 jumps, 20 seeds)
+    are no manoeuvre and give no speed near a walker's (0.15 m/s, the settling tolerance)."""
+    speeds, maneuvers = [], 0
+    for seed in range(20):
+        tracker, fastest = run_steps(seed)
+        speeds.append(fastest)
+        maneuvers += tracker.maneuver_count
+    print(f"\n8 cm steps: largest speed {max(speeds):.3f} m/s (median of runs "
+          f"{np.median(speeds):.3f}), manoeuvres {maneuvers}")
+    assert maneuvers == 0
+    assert max(speeds) < 0.15

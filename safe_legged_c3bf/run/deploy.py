@@ -54,7 +54,7 @@ def deploy_specs(opts: argparse.Namespace) -> list[NodeSpec]:
             params["robot_kind"] = opts.robot
         specs.append(NodeSpec(
             name=name, module=modules[name], parameters=params,
-            params_files=config_files(name),
+            params_files=config_files(name, "sensors"),
             ros_args=[*(a for r in opts.remap for a in ("-r", r)),
                       *(a for f in opts.params_file for a in ("--params-file", str(f)))],
         ))

@@ -2,7 +2,8 @@
 
 The layers, lowest first:
 
-1. the node's config file, ``config/<node>.yaml`` (given to the node as a parameter file);
+1. the node's config file, ``config/<node>.yaml`` (given to the node as a parameter file),
+   then, when the obstacles come from the detector, ``config/sensors/<node>.yaml``;
 2. what the bringup sets from its command line and the run folder (the scenario file as run,
    ``gui``, ``lockstep``, ``enabled`` for the filter, ``robot`` for the gait controller, ...);
 3. the robot profile, ``config/robots/<kind>.yaml``;
@@ -34,15 +35,26 @@ OVERRIDE_TARGETS = {
 }
 
 
-def config_files(node_name: str) -> list[Path]:
-    """The node's own config file (layer 1), if the package has one."""
+def config_files(node_name: str, perception: str = "oracle") -> list[Path]:
+    """The node's own config files (layer 1) the package has, lowest first.
+
+    ``config/<node>.yaml``, then with ``perception`` 'sensors' (the obstacle detector's
+    output, in simulation or on a robot) ``config/sensors/<node>.yaml``.
+    """
     from safe_legged_c3bf.run.config import config_path
 
-    try:
-        path = config_path(f"{node_name}.yaml")
-    except FileNotFoundError:
-        return []
-    return [path] if path.is_file() else []
+    names = [(f"{node_name}.yaml",)]
+    if perception == "sensors":
+        names.append(("sensors", f"{node_name}.yaml"))
+    files = []
+    for parts in names:
+        try:
+            path = config_path(*parts)
+        except FileNotFoundError:
+            continue
+        if path.is_file():
+            files.append(path)
+    return files
 
 
 def robot_profile(kind: str) -> dict[str, dict[str, Any]]:

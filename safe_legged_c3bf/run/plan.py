@@ -136,10 +136,11 @@ def make_plan(opts: argparse.Namespace) -> RunPlan:
 
     modules = node_modules(opts.node)
     params = node_parameters(opts, scenario, scenario_file, run_dir)
+    perception = perception_source(scenario)
     specs = [
         NodeSpec(name=name, module=modules[name], parameters=params[name],
-                 params_files=config_files(name))
-        for name in graph_for(perception_source(scenario))
+                 params_files=config_files(name, perception))
+        for name in graph_for(perception)
     ]
     recorder = None
     if opts.record is not None:

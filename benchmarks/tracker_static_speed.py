@@ -1,0 +1,109 @@
+"""Speeds the tracker gives static obstacles, on the detector's output from recorded runs.
+
+The detector's clusters change shape as the robot moves (a walker seen from another side, a
+wall cut into other pieces, a bar coming into the 3-D sensor's view), so their centres jump
+without the obstacle moving. This benchmark feeds the ``/obstacles/detections`` of MCAP
+recordings (``bringup --perception sensors --record FILE``; ``benchmarks/detector_quality.py``
+writes seven) through the tracker with several configurations, matches every confirmed track
+with an estimated velocity to the nearest true obstacle of ``/ground_truth/obstacles`` and
+prints, for the tracks of static obstacles, their speed's median, 95th percentile and maximum
+(m/s) and the share of track-frames above 0.2 m/s.
+
+Usage::
+
+    python benchmarks/tracker_static_speed.py runs/detector-quality/*.mcap
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from safe_legged_c3bf.perception.track import Detection, ObstaclePlane, TrackConfig
+from safe_legged_c3bf.perception.tracker import MultiObstacleTracker, TrackerConfig
+
+#: Configurations compared (label, tracker config).
+CONFIGS = (
+    ("default", TrackerConfig()),
+    ("no manoeuvre detector", TrackerConfig(track=TrackConfig(maneuver_detection=False))),
+    ("before the manoeuvre detector", TrackerConfig(
+        track=TrackConfig(maneuver_detection=False, accel_psd=1e-3))),
+)
+FAST = 0.2  # m/s: a speed counted as "looks like it moves"
+
+
+def load(path: Path) -> tuple[list, list]:
+    """``(ground truth, detections)``: lists of (t in s, obstacles) from a recording."""
+    from mcap.reader import make_reader
+    from rclpy.serialization import deserialize_message
+
+    from safe_legged_c3bf_msgs.msg import ObstacleArray
+
+    gt, det = [], []
+    with open(path, "rb") as f:
+        topics = ["/ground_truth/obstacles", "/obstacles/detections"]
+        for _, channel, message in make_reader(f).iter_messages(topics=topics):
+            msg = deserialize_message(message.data, ObstacleArray)
+            t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+            (gt if channel.topic == topics[0] else det).append((t, msg.obstacles))
+    return gt, det
+
+
+def _detection(o) -> Detection:  # noqa: ANN001 - safe_legged_c3bf_msgs/Obstacle
+    return Detection(
+        np.array([o.center.x, o.center.y, o.center.z]), (o.semi_axis_a, o.semi_axis_b),
+        plane=ObstaclePlane(o.plane), orientation=o.orientation, extent=o.extent,
+    )
+
+
+def _distance(truth, center: np.ndarray) -> float:  # noqa: ANN001 - Obstacle message
+    """Distance (m) in the true obstacle's plane: x-y (vertical) or x-z (horizontal)."""
+    other = truth.center.y if truth.plane == ObstaclePlane.VERTICAL else truth.center.z
+    mine = center[1] if truth.plane == ObstaclePlane.VERTICAL else center[2]
+    return math.hypot(truth.center.x - center[0], other - mine)
+
+
+def static_speeds(gt: list, det: list, config: TrackerConfig) -> np.ndarray:
+    """Speeds (m/s) of every confirmed, velocity-estimated track nearest a static obstacle."""
+    tracker = MultiObstacleTracker(config)
+    speeds, k = [], 0
+    for t, obstacles in det:
+        tracker.update([_detection(o) for o in obstacles], t)
+        while k + 1 < len(gt) and gt[k + 1][0] <= t:
+            k += 1
+        truths = gt[k][1]
+        for track in tracker.tracks_at(t):
+            if not track.velocity_estimated or not truths:
+                continue
+            center = np.asarray(track.center, dtype=float)
+            near = min(truths, key=lambda q, c=center: _distance(q, c))
+            v = near.velocity
+            if math.hypot(v.x, v.y, v.z) < 1e-6:
+                speeds.append(float(np.linalg.norm(track.velocity)))
+    return np.array(speeds)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("recordings", nargs="+", type=Path, help="MCAP files")
+    args = parser.parse_args(argv)
+    print(f"{'recording':<28} {'tracker':<30} {'frames':>6} {'p50':>6} {'p95':>6} "
+          f"{'max':>6} {'>0.2':>6}  (m/s)")
+    for path in args.recordings:
+        gt, det = load(path)
+        for label, config in CONFIGS:
+            s = static_speeds(gt, det, config)
+            if not len(s):
+                print(f"{path.stem:<28} {label:<30} no static-obstacle tracks")
+                continue
+            print(f"{path.stem:<28} {label:<30} {len(s):>6} {np.median(s):>6.3f} "
+                  f"{np.percentile(s, 95):>6.3f} {s.max():>6.3f} {np.mean(s > FAST):>6.1%}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

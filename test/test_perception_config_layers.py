@@ -1,0 +1,42 @@
+"""The tracker's parameters follow where obstacles come from: config/sensors/ is layered on
+config/<node>.yaml when the obstacle detector feeds the tracker (sensors, deploy)."""
+
+from __future__ import annotations
+
+from safe_legged_c3bf.bringup import build_parser
+from safe_legged_c3bf.run.deploy import deploy_specs
+from safe_legged_c3bf.run.parameters import config_files, merged_parameters
+from safe_legged_c3bf.run.plan import make_plan
+from safe_legged_c3bf.run.supervisor import NodeSpec
+
+
+def _tracker(files) -> dict:
+    return merged_parameters(NodeSpec(name="obstacle_tracker", module="m", params_files=files))
+
+
+def test_the_sensors_layer_comes_after_the_nodes_own_file():
+    oracle = config_files("obstacle_tracker")
+    sensors = config_files("obstacle_tracker", "sensors")
+    assert [p.name for p in oracle] == ["obstacle_tracker.yaml"]
+    assert sensors[0] == oracle[0]
+    assert sensors[1].parent.name == "sensors" and sensors[1].name == "obstacle_tracker.yaml"
+    assert config_files("safety_filter", "sensors") == config_files("safety_filter")
+
+
+def test_the_manoeuvre_detector_is_on_with_the_oracle_and_off_with_sensors():
+    oracle = _tracker(config_files("obstacle_tracker"))
+    sensors = _tracker(config_files("obstacle_tracker", "sensors"))
+    assert oracle["maneuver_detection"] is True and oracle["accel_psd"] == 0.0001
+    assert sensors["maneuver_detection"] is False and sensors["accel_psd"] == 0.001
+
+
+def test_a_sensors_run_and_deploy_mode_give_the_tracker_the_sensors_layer(tmp_path):
+    sensors = make_plan(build_parser().parse_args(
+        ["--perception", "sensors", "--out", str(tmp_path / "s")])).spec("obstacle_tracker")
+    oracle = make_plan(build_parser().parse_args(
+        ["--out", str(tmp_path / "o")])).spec("obstacle_tracker")
+    deploy = next(s for s in deploy_specs(build_parser().parse_args(["--deploy"]))
+                  if s.name == "obstacle_tracker")
+    assert merged_parameters(sensors)["maneuver_detection"] is False
+    assert merged_parameters(deploy)["maneuver_detection"] is False
+    assert merged_parameters(oracle)["maneuver_detection"] is True
