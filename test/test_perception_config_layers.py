@@ -40,3 +40,18 @@ def test_a_sensors_run_and_deploy_mode_give_the_tracker_the_sensors_layer(tmp_pa
     assert merged_parameters(sensors)["maneuver_detection"] is False
     assert merged_parameters(deploy)["maneuver_detection"] is False
     assert merged_parameters(oracle)["maneuver_detection"] is True
+
+
+def test_a_replays_params_files_reach_the_pipeline_built_in_process(tmp_path):
+    """The replay builds its pipeline in this process: the user's files must win there too."""
+    from safe_legged_c3bf.replay.run import pipeline_parameters
+
+    mine = tmp_path / "mine.yaml"
+    mine.write_text("obstacle_tracker:\n  ros__parameters:\n    maneuver_detection: true\n"
+                    "obstacle_detector:\n  ros__parameters:\n    cloud_row_spacing: 0.045\n")
+    _, merged = pipeline_parameters("quadruped", [mine])
+    assert merged["obstacle_tracker"]["maneuver_detection"] is True
+    assert merged["obstacle_detector"]["cloud_row_spacing"] == 0.045
+    _, plain = pipeline_parameters("quadruped")
+    assert plain["obstacle_tracker"]["maneuver_detection"] is False
+    assert plain["obstacle_detector"]["cloud_row_spacing"] != 0.045

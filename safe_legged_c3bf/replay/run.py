@@ -38,6 +38,17 @@ def pipeline_opts(robot: str, params_files: list[Path] | None = None) -> argpars
                               params_file=list(params_files or []), node=[])
 
 
+def pipeline_parameters(
+    robot: str, params_files: list[Path] | None = None
+) -> tuple[list[Any], dict[str, dict[str, Any]]]:
+    """The pipeline's node specs and what each node ends up with, ``params_files`` last."""
+    from safe_legged_c3bf.run.deploy import deploy_specs
+    from safe_legged_c3bf.run.parameters import merged_parameters
+
+    specs = deploy_specs(pipeline_opts(robot, params_files))
+    return specs, {s.name: merged_parameters(s, params_files or []) for s in specs}
+
+
 def filter_pad(robot: str, filter_params: dict[str, Any]) -> float:
     """The filter's growth of a vertical obstacle's radius: half the width plus the margin (m)."""
     from safe_legged_c3bf.run.parameters import filter_inflation
@@ -55,13 +66,10 @@ def replay(path: str | Path, robot: str = "quadruped", rate: float = 1.0,
     from rclpy.executors import SingleThreadedExecutor
 
     from safe_legged_c3bf.replay.player import FilterCollector, RecordingPlayer
-    from safe_legged_c3bf.run.deploy import deploy_specs
     from safe_legged_c3bf.run.in_process import find_node_class, rclpy_parameters
-    from safe_legged_c3bf.run.parameters import merged_parameters
 
     recording = load_recording(path)
-    specs = deploy_specs(pipeline_opts(robot, params_files))
-    merged = {s.name: merged_parameters(s) for s in specs}
+    specs, merged = pipeline_parameters(robot, params_files)
     pad = filter_pad(robot, merged["safety_filter"])
     context = rclpy.Context()
     rclpy.init(context=context)

@@ -18,6 +18,7 @@ in-process nodes are given and the report's inflation sizes are read from.
 from __future__ import annotations
 
 import argparse
+from collections.abc import Iterable
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -120,16 +121,29 @@ def node_parameters(
     return params
 
 
-def merged_parameters(spec: NodeSpec) -> dict[str, Any]:
-    """What a node ends up with: its config files first, then its overrides."""
+def merged_parameters(spec: NodeSpec, last_files: Iterable[Path] = ()) -> dict[str, Any]:
+    """What a node ends up with: its config files, its overrides, then ``last_files``.
+
+    ``last_files`` are the user's ``--params-file`` files of a pipeline built in this process
+    (a node process reads them itself from its ``--ros-args``).
+    """
     merged: dict[str, Any] = {}
     for path in spec.params_files:
-        data = yaml.safe_load(Path(path).read_text(encoding="utf-8")) or {}
-        for key, section in data.items():
-            if isinstance(section, dict) and key in (spec.name, f"/{spec.name}", "/**"):
-                merged.update(section.get("ros__parameters", {}) or {})
+        merged.update(_file_section(path, spec.name))
     merged.update(spec.parameters)
+    for path in last_files:
+        merged.update(_file_section(path, spec.name))
     return merged
+
+
+def _file_section(path: Path, node_name: str) -> dict[str, Any]:
+    """The ``ros__parameters`` a ROS 2 parameter file gives node ``node_name``."""
+    data = yaml.safe_load(Path(path).read_text(encoding="utf-8")) or {}
+    values: dict[str, Any] = {}
+    for key, section in data.items():
+        if isinstance(section, dict) and key in (node_name, f"/{node_name}", "/**"):
+            values.update(section.get("ros__parameters", {}) or {})
+    return values
 
 
 def filter_inflation(robot: Any, filter_params: dict[str, Any]) -> tuple[float, float, float]:
