@@ -6,7 +6,8 @@ import math
 
 import numpy as np
 import pytest
-from detector_scenes import Bar, Box, Pillar, Pose, cloud, scan, scan_angles
+from detector_frames import horizontal, inside_vertical, sensor_frames, vertical
+from detector_scenes import Bar, Box, Pillar, Pose, scan, scan_angles
 
 from safe_legged_c3bf.interfaces.sensor_mounts import DEPTH_FRAME, LIDAR_FRAME, default_mounts
 from safe_legged_c3bf.perception.detector import ObstacleDetector
@@ -25,47 +26,13 @@ def frames(scene, kind="quadruped", pose=None, odom=None, use_scan=True, use_clo
            noise=0.0, seed=0):
     """Scan and cloud frames of ``scene`` seen from ``pose``; the detector believes ``odom``."""
     pose = pose or Pose(z=BASE_Z[kind])
-    odom = odom or pose
-    mounts = default_mounts(kind)
-    history = PoseHistory()
-    history.add(STAMP, [odom.x, odom.y, odom.z], odom.quaternion())
-    box = default_self_box(kind)
-    scan_frame = cloud_frame = None
-    if use_scan:
-        lidar = mounts[LIDAR_FRAME]
-        angle_min, inc = scan_angles(360)
-        sp = scan_points(scan(pose, lidar, scene, noise=noise, seed=seed), angle_min, inc,
-                         0.05, 10.0)
-        scan_frame = make_frame("scan", STAMP, sp.points, lidar.matrix(), history, box,
-                                beams=sp.beams, angle_increment=inc, beam_count=sp.beam_count)
-    if use_cloud:
-        depth = mounts[DEPTH_FRAME]
-        pts = cloud(pose, depth, scene, noise=noise, seed=seed + 1).reshape(-1, 3)
-        pts = pts[np.all(np.isfinite(pts), axis=1)]
-        cloud_frame = make_frame("cloud", STAMP, pts, depth.matrix(), history, box)
-    return scan_frame, cloud_frame
+    return sensor_frames(scene, kind, pose, odom or pose, STAMP, use_scan, use_cloud, noise,
+                         seed)
 
 
 def detect(scene, config=None, **kwargs):
     scan_frame, cloud_frame = frames(scene, **kwargs)
     return ObstacleDetector(config).detect(scan=scan_frame, cloud=cloud_frame)
-
-
-def vertical(report):
-    return [o for o in report.obstacles if o.plane == ObstaclePlane.VERTICAL]
-
-
-def horizontal(report):
-    return [o for o in report.obstacles if o.plane == ObstaclePlane.HORIZONTAL]
-
-
-def inside_vertical(o, xy, grow=0.0):
-    """True for the points (n, 2) inside the x-y ellipse of a vertical obstacle."""
-    c, s = math.cos(o.orientation), math.sin(o.orientation)
-    d = np.asarray(xy) - o.center[:2]
-    u, v = d @ [c, s], d @ [-s, c]
-    a, b = o.semi_axes[0] + grow, o.semi_axes[1] + grow
-    return (u / a) ** 2 + (v / b) ** 2 <= 1.0
 
 
 @pytest.mark.parametrize("noise", [0.0, 0.01])

@@ -12,9 +12,10 @@ import math
 
 import numpy as np
 import pytest
-from detector_scenes import Bar, Box, Pillar, Pose, cloud, scan, scan_angles
+from detector_frames import horizontal, inside_vertical, sensor_frames, vertical
+from detector_scenes import Bar, Box, Pillar, Pose
 
-from safe_legged_c3bf.interfaces.sensor_mounts import DEPTH_FRAME, LIDAR_FRAME, default_mounts
+from safe_legged_c3bf.interfaces.sensor_mounts import LIDAR_FRAME, default_mounts
 from safe_legged_c3bf.perception.bar_memory import (
     MAX_REMEMBERED_BARS,
     MAX_STANDING_CELLS,
@@ -23,10 +24,6 @@ from safe_legged_c3bf.perception.bar_memory import (
 )
 from safe_legged_c3bf.perception.detector import ObstacleDetector
 from safe_legged_c3bf.perception.detector_config import DetectorConfig
-from safe_legged_c3bf.perception.pose_history import PoseHistory
-from safe_legged_c3bf.perception.self_filter import default_self_box
-from safe_legged_c3bf.perception.sensor_frame import make_frame
-from safe_legged_c3bf.perception.sensor_points import scan_points
 from safe_legged_c3bf.perception.shapes import DetectedObstacle
 from safe_legged_c3bf.perception.track import ObstaclePlane
 
@@ -38,22 +35,7 @@ STEP = 0.1  # s between frames
 
 def frames(scene, pose, stamp, use_scan=True, use_cloud=True):
     """The A1's scan and cloud frames of ``scene`` from ``pose`` at ``stamp`` (odom exact)."""
-    history = PoseHistory()
-    history.add(stamp, [pose.x, pose.y, pose.z], pose.quaternion())
-    box = default_self_box("quadruped")
-    scan_frame = cloud_frame = None
-    if use_scan:
-        lidar = MOUNTS[LIDAR_FRAME]
-        angle_min, inc = scan_angles(360)
-        sp = scan_points(scan(pose, lidar, scene), angle_min, inc, 0.05, 10.0)
-        scan_frame = make_frame("scan", stamp, sp.points, lidar.matrix(), history, box,
-                                beams=sp.beams, angle_increment=inc, beam_count=sp.beam_count)
-    if use_cloud:
-        depth = MOUNTS[DEPTH_FRAME]
-        pts = cloud(pose, depth, scene).reshape(-1, 3)
-        pts = pts[np.all(np.isfinite(pts), axis=1)]
-        cloud_frame = make_frame("cloud", stamp, pts, depth.matrix(), history, box)
-    return scan_frame, cloud_frame
+    return sensor_frames(scene, "quadruped", pose, pose, stamp, use_scan, use_cloud)
 
 
 def walk(bar_x):
@@ -75,22 +57,6 @@ def run(scene, bar_x, config=None):
         scan_frame, cloud_frame = frames(scene, pose, 10.0 + STEP * k)
         out.append((pose, scan_frame, detector.detect(scan=scan_frame, cloud=cloud_frame)))
     return out
-
-
-def vertical(report):
-    return [o for o in report.obstacles if o.plane == ObstaclePlane.VERTICAL]
-
-
-def horizontal(report):
-    return [o for o in report.obstacles if o.plane == ObstaclePlane.HORIZONTAL]
-
-
-def inside_vertical(o, xy, grow=0.0):
-    """True for the points (n, 2) inside the x-y ellipse of a vertical obstacle."""
-    c, s = math.cos(o.orientation), math.sin(o.orientation)
-    d = np.asarray(xy) - o.center[:2]
-    u, v = d @ [c, s], d @ [-s, c]
-    return (u / (o.semi_axes[0] + grow)) ** 2 + (v / (o.semi_axes[1] + grow)) ** 2 <= 1.0
 
 
 def the_bar(report, bar=BAR):
