@@ -47,20 +47,28 @@ def record(scenario: str, out: Path, rerun: bool) -> Path:
     return mcap
 
 
-def read(mcap: Path) -> tuple[list, list, np.ndarray]:
-    """(detection frames, truth frames, odom rows t x y) from a recording."""
+def read_messages(mcap: Path, wanted: list[str]) -> dict[str, list]:
+    """The messages of each topic in ``wanted``, deserialised, in the recording's order."""
     from mcap.reader import make_reader
     from rclpy.serialization import deserialize_message
 
     from safe_legged_c3bf.interfaces import topics
 
-    names = {topics.OBSTACLE_DETECTIONS.name: [], topics.GROUND_TRUTH_OBSTACLES.name: [],
-             topics.ODOM.name: []}
+    names: dict[str, list] = {name: [] for name in wanted}
     classes = {n: topics.by_name(n).msg_class() for n in names}
     with open(mcap, "rb") as stream:
         for _s, channel, message in make_reader(stream).iter_messages(topics=list(names)):
             msg = deserialize_message(message.data, classes[channel.topic])
             names[channel.topic].append(msg)
+    return names
+
+
+def read(mcap: Path) -> tuple[list, list, np.ndarray]:
+    """(detection frames, truth frames, odom rows t x y) from a recording."""
+    from safe_legged_c3bf.interfaces import topics
+
+    names = read_messages(mcap, [topics.OBSTACLE_DETECTIONS.name,
+                                 topics.GROUND_TRUTH_OBSTACLES.name, topics.ODOM.name])
     odom = np.array([(_t(m.header.stamp), m.pose.pose.position.x, m.pose.pose.position.y)
                      for m in names[topics.ODOM.name]]).reshape(-1, 3)
     det = [(_t(m.header.stamp), _rows(m)) for m in names[topics.OBSTACLE_DETECTIONS.name]]

@@ -22,6 +22,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from detector_quality import read_messages  # the same folder: benchmarks/
 
 from safe_legged_c3bf.perception.track import Detection, ObstaclePlane, TrackConfig
 from safe_legged_c3bf.perception.tracker import MultiObstacleTracker, TrackerConfig
@@ -38,19 +39,15 @@ FAST = 0.2  # m/s: a speed counted as "looks like it moves"
 
 def load(path: Path) -> tuple[list, list]:
     """``(ground truth, detections)``: lists of (t in s, obstacles) from a recording."""
-    from mcap.reader import make_reader
-    from rclpy.serialization import deserialize_message
+    from safe_legged_c3bf.interfaces import topics
 
-    from safe_legged_c3bf_msgs.msg import ObstacleArray
+    truth, detections = topics.GROUND_TRUTH_OBSTACLES.name, topics.OBSTACLE_DETECTIONS.name
+    names = read_messages(path, [truth, detections])
 
-    gt, det = [], []
-    with open(path, "rb") as f:
-        topics = ["/ground_truth/obstacles", "/obstacles/detections"]
-        for _, channel, message in make_reader(f).iter_messages(topics=topics):
-            msg = deserialize_message(message.data, ObstacleArray)
-            t = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
-            (gt if channel.topic == topics[0] else det).append((t, msg.obstacles))
-    return gt, det
+    def frames(msgs: list) -> list:
+        return [(m.header.stamp.sec + m.header.stamp.nanosec * 1e-9, m.obstacles) for m in msgs]
+
+    return frames(names[truth]), frames(names[detections])
 
 
 def _detection(o) -> Detection:  # noqa: ANN001 - safe_legged_c3bf_msgs/Obstacle
