@@ -378,19 +378,12 @@ class Track:
         The NIS is the plain Kalman update's; a manoeuvre detected afterwards corrects the
         estimate further (:mod:`safe_legged_c3bf.perception.maneuver`).
         """
-        prior = self.kf.snapshot()
-        self.kf.predict_to(max(float(t), self.kf.time))
         z = np.asarray(detection.center, dtype=float).reshape(3)
-        estimated = self.velocity_estimated()
-        innovation, covariance = self.kf.innovation(z)
-        nis = self.kf.update(z)
-        axes = plane_axes(ObstaclePlane(detection.plane))
-        if self._maneuver is not None and self._maneuver.observe(
-            self.kf, prior, z, innovation, covariance, axes, test=estimated
-        ):
-            self._held_estimated = estimated
-        elif self._held_estimated and self._velocity_accurate(self.kf.velocity_covariance):
-            self._held_estimated = False
+        if self._maneuver is None:
+            self.kf.predict_to(max(float(t), self.kf.time))
+            nis = self.kf.update(z)
+        else:
+            nis = self._watched_update(self._maneuver, z, t, ObstaclePlane(detection.plane))
         source_id = str(detection.id) or self._appearance.source_id
         self._appearance = _Appearance(
             semi_axes=(float(detection.semi_axes[0]), float(detection.semi_axes[1])),
@@ -421,6 +414,22 @@ class Track:
     def delete(self) -> None:
         """Mark the track deleted."""
         self._status = TrackStatus.DELETED
+
+    def _watched_update(
+        self, maneuver: ManeuverDetector, z: np.ndarray, t: float, plane: ObstaclePlane
+    ) -> float:
+        """The Kalman update, then the manoeuvre test on it; return the update's NIS."""
+        prior = self.kf.snapshot()
+        self.kf.predict_to(max(float(t), self.kf.time))
+        estimated = self.velocity_estimated()
+        innovation, covariance = self.kf.innovation(z)
+        nis = self.kf.update(z)
+        if maneuver.observe(self.kf, prior, z, innovation, covariance, plane_axes(plane),
+                            test=estimated):
+            self._held_estimated = estimated
+        elif self._held_estimated and self._velocity_accurate(self.kf.velocity_covariance):
+            self._held_estimated = False
+        return nis
 
     # ------------------------------------------------------------------ output
     def velocity_estimated(self, velocity_covariance: np.ndarray | None = None) -> bool:
