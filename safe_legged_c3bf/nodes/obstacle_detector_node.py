@@ -79,6 +79,9 @@ class ObstacleDetectorNode(Node):
         self.params = NodeParameters(self, ObstacleDetectorParams, apply=self._apply_params)
         p = self.params.value
         self.lidar_mount, self.cloud_mount = p.mounts()
+        self._lidar_T = self.lidar_mount.matrix()  # the mounts are fixed at start-up
+        self._cloud_T = self.cloud_mount.matrix()
+        self._gate = StampGate(float(p.max_future_stamp), float(p.max_sensor_age))
         self.self_box = p.self_box()
         self.detector = ObstacleDetector(p.detector)
         self.poses = PoseHistory(p.pose_history, p.max_pose_extrapolation)
@@ -112,6 +115,7 @@ class ObstacleDetectorNode(Node):
         if new.detector != old.detector:
             self.detector.configure(new.detector)
         self.poses.max_extrapolation = float(new.max_pose_extrapolation)
+        self._gate = StampGate(float(new.max_future_stamp), float(new.max_sensor_age))
 
     # -- inputs -------------------------------------------------------------------------------
     def _now(self) -> float:
@@ -126,10 +130,7 @@ class ObstacleDetectorNode(Node):
         )
 
     def _stamp_ok(self, topic: str, stamp: float) -> bool:
-        p = self.params.value
-        verdict = StampGate(float(p.max_future_stamp), float(p.max_sensor_age)).verdict(
-            stamp, self._now()
-        )
+        verdict = self._gate.verdict(stamp, self._now())
         if verdict is not StampVerdict.OK:
             self._reject(topic, verdict.value, f"stamp {stamp:.3f} s, clock {self._now():.3f} s")
             return False
@@ -183,7 +184,7 @@ class ObstacleDetectorNode(Node):
         try:
             sp = laser_scan_points(msg)
             frame = make_frame(
-                "scan", stamp, sp.points, self.lidar_mount.matrix(), self.poses,
+                "scan", stamp, sp.points, self._lidar_T, self.poses,
                 self.self_box, sp.beam_times, sp.beams, msg.angle_increment, sp.beam_count,
             )
         except SensorInputError as err:
@@ -225,7 +226,7 @@ class ObstacleDetectorNode(Node):
         if cloud.frame is None:
             try:
                 cloud.frame = make_frame(
-                    "cloud", cloud.stamp, cloud.points, self.cloud_mount.matrix(), self.poses,
+                    "cloud", cloud.stamp, cloud.points, self._cloud_T, self.poses,
                     self.self_box,
                 )
             except SensorInputError as err:
