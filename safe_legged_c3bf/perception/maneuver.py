@@ -148,7 +148,6 @@ class ManeuverDetector:
         )
         self._axes: tuple[int, ...] | None = None
         self.count = 0  # manoeuvres detected (corrections made)
-        self.outliers = 0  # detections found to be outliers and taken out afterwards
 
     @property
     def noise_scale(self) -> float:
@@ -209,7 +208,6 @@ class ManeuverDetector:
         if outlier is not None and outlier.fits and outlier.drop > limit and outlier.drop >= drop:
             kf.restore(outlier.estimate)
             self._updates.clear()
-            self.outliers += 1
             return False
         if drop <= limit:
             return False
@@ -223,42 +221,42 @@ class ManeuverDetector:
         self, kf: ConstantVelocityKalmanFilter, updates: list[_Update], j: int, scale: float
     ) -> _Onset:
         """Updates ``j..`` processed again after a velocity change before update ``j``."""
-        axes = self._axes or ()
         f = kf.copy()
         f.restore(updates[j].prior)
-        f.add_velocity_variance(self.velocity_variance, axes)
-        drop = 0.0
-        cost = sum(u.nis + u.logdet for u in updates[:j])
+        f.add_velocity_variance(self.velocity_variance, self._axes or ())
+        pre = sum(u.nis + u.logdet for u in updates[:j])
+        drop, cost, fits = self._replay(f, updates[j:], scale, 1, 0.0, pre)
+        return _Onset(len(updates) - j, drop, cost, fits, f.snapshot())
+
+    def _without(
+        self, kf: ConstantVelocityKalmanFilter, updates: list[_Update], i: int, scale: float
+    ) -> _Onset:
+        """Updates ``i+1..`` processed again without update ``i`` (an outlier)."""
+        f = kf.copy()
+        f.restore(updates[i].prior)
+        drop, _, fits = self._replay(f, updates[i + 1:], scale, 0, updates[i].nis, 0.0)
+        return _Onset(len(updates) - i - 1, drop, 0.0, fits, f.snapshot())
+
+    def _replay(
+        self, f: ConstantVelocityKalmanFilter, later: list[_Update], scale: float,
+        fit_from: int, drop: float, cost: float,
+    ) -> tuple[float, float, bool]:
+        """Process ``later`` again with ``f``; ``(drop, cost, fits)`` added to ``drop``/``cost``.
+
+        ``fits``: every innovation from the ``fit_from``-th on passes the fit test.
+        """
+        axes = self._axes or ()
         fits = True
-        for k, u in enumerate(updates[j:]):
+        for k, u in enumerate(later):
             f.predict_to(u.time)
             y, S = f.innovation(u.z)
             nis, logdet = in_plane_terms(y, S, axes)
             f.update(u.z)
             drop += u.nis - nis
             cost += nis + logdet
-            if k > 0 and nis > self.fit_threshold * scale:
+            if k >= fit_from and nis > self.fit_threshold * scale:
                 fits = False
-        return _Onset(len(updates) - j, drop, cost, fits, f.snapshot())
-
-
-    def _without(
-        self, kf: ConstantVelocityKalmanFilter, updates: list[_Update], i: int, scale: float
-    ) -> _Onset:
-        """Updates ``i+1..`` processed again without update ``i`` (an outlier)."""
-        axes = self._axes or ()
-        f = kf.copy()
-        f.restore(updates[i].prior)
-        drop = updates[i].nis
-        fits = True
-        for u in updates[i + 1:]:
-            f.predict_to(u.time)
-            y, S = f.innovation(u.z)
-            nis, _ = in_plane_terms(y, S, axes)
-            f.update(u.z)
-            drop += u.nis - nis
-            fits = fits and nis <= self.fit_threshold * scale
-        return _Onset(len(updates) - i - 1, drop, 0.0, fits, f.snapshot())
+        return drop, cost, fits
 
 
 def _mixture(onsets: list[_Onset]) -> FilterState:
