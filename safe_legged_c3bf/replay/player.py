@@ -70,7 +70,7 @@ class FilterCollector(Node):
 
     def _on_state(self, msg) -> None:  # noqa: ANN001 - SafetyFilterState
         r, f = msg.reference, msg.filtered
-        self._rows.append((msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9, msg.status,
+        self._rows.append((ros_common.from_time_msg(msg.header.stamp), msg.status,
                            r.linear.x, r.linear.y, r.angular.z, f.linear.x, f.linear.y,
                            f.angular.z))
 

@@ -10,7 +10,6 @@ receiver on sim time would take it for a message from the future). Ground truth 
 
 from __future__ import annotations
 
-import math
 import struct
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,6 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from safe_legged_c3bf.interfaces import topics
+from safe_legged_c3bf.interfaces.rotations import yaw_from_quaternion
+from safe_legged_c3bf.nodes.messages import from_time_msg
 from safe_legged_c3bf.replay.kpis import GroundTruth
 
 #: What the replay publishes into the safety pipeline by default.
@@ -78,14 +79,14 @@ def load_recording(path: str | Path, played: tuple[str, ...] = PLAYED_TOPICS) ->
                     topics=sorted(wanted), log_time_order=True):
                 name, data = channel.topic, bytes(message.data)
                 if name == topics.CLOCK.name:
-                    clock = _seconds(deserialize_message(data, classes[name]).clock)
+                    clock = from_time_msg(deserialize_message(data, classes[name]).clock)
                 if clock is None:
                     continue  # nothing is played before the first /clock
                 if name == topics.ODOM.name:
                     poses.append(_pose(deserialize_message(data, classes[name])))
                 elif name == topics.GROUND_TRUTH_OBSTACLES.name:
                     msg = deserialize_message(data, classes[name])
-                    frames.append((_seconds(msg.header.stamp), _vertical(msg)))
+                    frames.append((from_time_msg(msg.header.stamp), _vertical(msg)))
                 if name in played:
                     stamp = _cdr_stamp(data) if name in _STAMPED else None
                     messages.append((max(clock, stamp) if stamp is not None else clock, name,
@@ -111,16 +112,12 @@ def _cdr_stamp(data: bytes) -> float | None:
     return sec + nanosec * 1e-9
 
 
-def _seconds(stamp) -> float:  # noqa: ANN001 - builtin_interfaces/Time
-    return stamp.sec + stamp.nanosec * 1e-9
-
-
 def _pose(msg) -> tuple[float, ...]:  # noqa: ANN001 - nav_msgs/Odometry
     """t, x, y, yaw, and the body-frame velocity vx, vy (m/s) of an Odometry."""
     q = msg.pose.pose.orientation
-    yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+    yaw = yaw_from_quaternion(q.x, q.y, q.z, q.w)
     p, v = msg.pose.pose.position, msg.twist.twist.linear
-    return _seconds(msg.header.stamp), p.x, p.y, yaw, v.x, v.y
+    return from_time_msg(msg.header.stamp), p.x, p.y, yaw, v.x, v.y
 
 
 def _vertical(msg) -> np.ndarray:  # noqa: ANN001 - ObstacleArray
