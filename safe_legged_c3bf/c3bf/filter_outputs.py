@@ -1,7 +1,7 @@
 """The safety filter's :class:`~.result.FilterResult`, built from an input and the rows.
 
-Every path of ``SafetyFilter.filter`` but the one-obstacle fast path
-(``closed_form.one_obstacle``) ends here: :func:`make_result` for an answered input,
+Every path of ``SafetyFilter.filter`` but the fast path (:mod:`.fast_path`, which builds its
+own results) ends here: :func:`make_result` for an answered input,
 :func:`failsafe_result` for the FAILSAFE brake input. ``terms``, ``G``, ``c0`` are the rows
 ``G u + c0 >= 0`` the answer was computed for (``rows``); ``cur`` the call's limits; ``t0``
 the start of the call (``time.perf_counter``).

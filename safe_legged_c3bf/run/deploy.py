@@ -1,11 +1,12 @@
 """The safety pipeline alone, on a real robot's topics: ``bringup --deploy``.
 
 Starts the obstacle detector, obstacle tracker and safety filter (and, with
-``--with-planner``, the reference planner), each in its own supervised process or composed in
-this one, with the robot profile's parameters, on the environment's ROS domain (a real robot's
-graph is not private), on the system clock (``--use-sim-time`` for a replay with /clock). No
-simulator and no gait controller: the robot's own driver reads ``/cmd_vel_safe``; remappings
-connect the pipeline to the driver's topic names (doc/deploy.md).
+``--with-planner``, the reference planner), each in its own supervised process (``--deploy``
+does not compose them in one), with the robot profile's parameters, on the environment's ROS
+domain (a real robot's graph is not private), on the system clock (``--use-sim-time`` for a
+replay with /clock). No simulator and no gait controller: the robot's own driver reads
+``/cmd_vel_safe``; remappings connect the pipeline to the driver's topic names
+(doc/deploy.md).
 
 It runs until SIGINT / SIGTERM (exit 0). A node that dies is reported at once and the others
 keep running: without fresh obstacles or odometry the filter brakes to a stop on its input
@@ -83,7 +84,7 @@ def run_deploy(opts: argparse.Namespace, run_dir: Path) -> int:
     if missing:
         raise StartupError("node module(s) not installed: " + ", ".join(missing))
     signals = _Signals()
-    supervisor = Supervisor(run_dir / "logs", env=_environment())
+    supervisor = Supervisor(run_dir / "logs", env=dict(os.environ))
     failed: list[str] = []
     try:
         for spec in specs:
@@ -104,6 +105,3 @@ def run_deploy(opts: argparse.Namespace, run_dir: Path) -> int:
         signals.restore()
     return EXIT_FAILED if failed else EXIT_OK
 
-
-def _environment() -> dict[str, str]:
-    return dict(os.environ)
