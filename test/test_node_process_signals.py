@@ -11,23 +11,30 @@ import time
 import pytest
 
 
-def _start_filter_node(log) -> subprocess.Popen:
+def _start_filter_node(log, node_name: str) -> subprocess.Popen:
     env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     return subprocess.Popen(
-        [sys.executable, "-m", "safe_legged_c3bf.nodes.safety_filter_node"],
+        [sys.executable, "-m", "safe_legged_c3bf.nodes.safety_filter_node",
+         "--ros-args", "-r", f"__node:={node_name}"],
         env=env, stdout=subprocess.DEVNULL, stderr=log,
     )
 
 
-def _wait_until_spinning(proc: subprocess.Popen, ctx, timeout: float = 30.0) -> None:
-    """Until the node is in the ROS graph (it is then in, or about to enter, its loop)."""
+def _wait_until_spinning(proc: subprocess.Popen, node_name: str, ctx,
+                         timeout: float = 30.0) -> None:
+    """Until the node is in the ROS graph (it is then in, or about to enter, its loop).
+
+    Each process gets its own node name: the graph may still list the node of an earlier
+    process that has exited, and a signal sent on that sight once reached the new process
+    while it was still importing its modules (exit -2, CI of bda55c9).
+    """
     import rclpy
 
     probe = rclpy.create_node("signal_probe", context=ctx)
     try:
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
-            if "safety_filter" in probe.get_node_names():
+            if node_name in probe.get_node_names():
                 return
             if proc.poll() is not None:
                 raise AssertionError(f"node exited early ({proc.returncode})")
@@ -42,9 +49,10 @@ def test_node_process_exits_on_signal(signum, ros_executor, tmp_path):
     for k in range(3):  # the hang this guards against was intermittent
         log_path = tmp_path / f"node{k}.log"
         log = open(log_path, "w")  # noqa: SIM115 - closed in finally
-        proc = _start_filter_node(log)
+        node_name = f"safety_filter_{signum.name.lower()}_{k}_{os.getpid()}"
+        proc = _start_filter_node(log, node_name)
         try:
-            _wait_until_spinning(proc, ros_executor.context_for_nodes)
+            _wait_until_spinning(proc, node_name, ros_executor.context_for_nodes)
             time.sleep(0.3)
             proc.send_signal(signum)
             try:  # the hang guarded against lasted for good; 15 s is room for a loaded CI
