@@ -83,6 +83,7 @@ def figures(report: dict, out: Path) -> dict:
         "sim_rtf": sim.get("achieved_real_time_factor"),
         "driver_timeouts": sim.get("driver_timeouts"),
         "driver_timeout_times": sim.get("driver_timeout_times") or [],
+        "driver_timeout_details": sim.get("driver_timeout_details") or [],
         "lockstep_timeouts": sim.get("lockstep_timeouts"),
         "fell": s.get("fallen"),
         "sim_time": s.get("sim_time"),
@@ -115,6 +116,10 @@ def print_row(label: str, row: dict) -> None:
           f"{100 * p['missed_share']:.1f} %")
     if row["driver_timeout_times"]:
         print(f"{'':<38} driver timeouts at t = {row['driver_timeout_times']} s (sim)")
+        for d in row["driver_timeout_details"]:
+            print(f"{'':<38} t {d['t']:.3f} s: {1e3 * d['wall_since_command']:.0f} ms (wall) "
+                  f"since the last command, physics {1e3 * d['behind_schedule']:.0f} ms "
+                  "behind schedule")
 
 
 def main() -> int:

@@ -221,3 +221,27 @@ def test_bad_scenario_parameter(ros_executor, tmp_path):
     with pytest.raises(ScenarioError, match=r"obstacles\[0\].semi_axes: must be two positive"):
         SimulatorNode(context=ros_executor.context_for_nodes,
                       parameter_overrides=[Parameter("scenario", value=str(path))])
+
+
+def test_a_driver_timeout_says_how_late_the_controller_was(ros_executor, tmp_path):
+    """Paced by the wall clock, a silent controller shows as wall time since its last command."""
+    scenario = yaml.safe_load(config_path("scenarios", "test_minimal.yaml").read_text())
+    scenario.update(duration=0.5, name="silent")
+    path = tmp_path / "silent.yaml"
+    path.write_text(yaml.safe_dump(scenario))
+    node = make_node(ros_executor, scenario=str(path), real_time_factor=1.0)
+    probe = Probe(ros_executor, node, name="silent_probe")
+    assert wait_for_discovery(ros_executor, probe.pub)
+    probe.pub.publish(probe.command(to_time_msg(0.0)))  # one command, then silence
+    assert spin_until(ros_executor, lambda: node.finished, 20)
+    summary = node.summary()
+    assert summary["driver_timeouts"] == 1
+    (event,) = summary["driver_timeout_details"]
+    assert event["t"] == pytest.approx(0.1, abs=0.01)
+    # 0.1 s of sim time at real time: the controller was silent >= ~0.1 s of wall time, and
+    # physics was on schedule (the timeout is the controller's, not a catch-up burst).
+    assert event["wall_since_command"] > 0.08
+    assert event["behind_schedule"] < 0.05
+    for n in (node, probe.node):
+        ros_executor.remove_node(n)
+        n.destroy_node()

@@ -39,6 +39,8 @@ from safe_legged_c3bf.nodes.parameters import NodeParameters
 from safe_legged_c3bf.safety import StampGate, StampVerdict
 from safe_legged_c3bf_msgs.msg import MotorCommand
 
+_SLOW_TICK = 0.02  # wall s: a tick slower than this is logged (the drivers time out at 0.1 s)
+
 
 class GaitControllerNode(Node):
     """Thin rclpy wrapper around a gait controller."""
@@ -70,6 +72,7 @@ class GaitControllerNode(Node):
         self._dropped = 0
         self._ticks = 0
         self._tick_wall = 0.0
+        self._tick_max = 0.0  # wall s of the slowest tick
         self._command_stale = True
         self._start_subscribers = int(p.start_subscribers)
         self._start_wait = float(p.start_wait)
@@ -215,7 +218,12 @@ class GaitControllerNode(Node):
         base = self._base_state(t)
         start = time.perf_counter()
         cmd = self.controller.update(t, base, q, dq, self._active_command(t))
-        self._tick_wall += time.perf_counter() - start
+        took = time.perf_counter() - start
+        self._tick_wall += took
+        if took > self._tick_max:
+            self._tick_max = took
+            if took > _SLOW_TICK:
+                self.get_logger().warn(f"slowest tick so far: {took * 1e3:.0f} ms at t={t:.3f} s")
         self._ticks += 1
         self._last_tick = t
         self._last_processed_stamp = t
@@ -280,7 +288,8 @@ class GaitControllerNode(Node):
             "gait_controller",
             level,
             "command stale: standing" if self._command_stale else "tracking /cmd_vel_safe",
-            {"ticks": self._ticks, "mean_tick_ms": f"{mean_ms:.3f}", "dropped": self._dropped,
+            {"ticks": self._ticks, "mean_tick_ms": f"{mean_ms:.3f}",
+             "max_tick_ms": f"{self._tick_max * 1e3:.3f}", "dropped": self._dropped,
              **{f"rejected_{k}": n for k, n in sorted(self.rejected.items())}},
         )
         self._diag_pub.publish(ros_common.diagnostic_array(self, [status]))

@@ -263,6 +263,7 @@ class SimulatorNode(Node):
             "lockstep": self._settings.lockstep,
             "lockstep_timeouts": self._loop.lockstep_timeouts,
             "stale_commands_ignored": self._loop.stale_commands,
+            "driver_timeout_details": list(self._loop.damping_events),
             "real_time_factor": self._settings.real_time_factor,
             "wall_time": wall,
             "achieved_real_time_factor": (self._sim.time / wall) if wall else None,

@@ -122,6 +122,10 @@ class PhysicsLoop:
         self._last_state_stamp = 0
         self._last_mode = sim.driver_mode
         self._last_reject_warning = -math.inf
+        self._last_command_wall: float | None = None
+        #: The first few switches to damping: sim time (s), wall s since the last accepted
+        #: command, and wall s the physics was behind its schedule (paced runs) then.
+        self.damping_events: list[dict[str, float]] = []
         self._thread = threading.Thread(target=self._run, name=THREAD_NAME, daemon=True)
 
     # ------------------------------------------------------------------ control
@@ -195,6 +199,7 @@ class PhysicsLoop:
                     f"array sizes); {sim.rejected_commands} rejected so far"
                 )
             return
+        self._last_command_wall = time.monotonic()
         if self._waiting:
             self._logger.info("first MotorCommand received: physics starts")
             self._start_running()
@@ -317,6 +322,7 @@ class PhysicsLoop:
     def _driver_mode_changed(self, mode: DriverMode) -> None:
         """Log the drivers' switch to or from damping mode; report it in /diagnostics."""
         if mode is DriverMode.DAMPING:
+            self._note_damping()
             self._logger.warn(
                 f"no MotorCommand for {self._sim.driver.timeout:g} s (sim time): motor drivers "
                 "switched to damping mode"
@@ -325,6 +331,17 @@ class PhysicsLoop:
             self._logger.info("MotorCommands again: motor drivers active")
         self._last_mode = mode
         self._on_status()
+
+    def _note_damping(self) -> None:
+        """Record when the drivers timed out, and whether the controller or physics was late."""
+        if len(self.damping_events) >= 20:
+            return
+        now = time.monotonic()
+        since = now - self._last_command_wall if self._last_command_wall is not None else -1.0
+        lag = -self._pacing_delay(now) if self._rtf > 0.0 and self._anchor else 0.0
+        self.damping_events.append({"t": round(self._sim.time, 3),
+                                    "wall_since_command": round(since, 4),
+                                    "behind_schedule": round(lag, 4)})
 
     def _finish(self) -> None:
         self._wall_end = time.monotonic()
