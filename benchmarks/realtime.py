@@ -107,7 +107,8 @@ def print_row(label: str, row: dict) -> None:
         print(f"{label:<38} FAILED {row['error']}")
         return
     cpu = row["cpu"]
-    nodes = " ".join(f"{k[:4]} {cpu[k]:.2f}" for k in sorted(cpu, key=lambda k: -cpu[k]))
+    nodes = " ".join(f"{k.removeprefix('obstacle_')[:4]} {cpu[k]:.2f}"
+                     for k in sorted(cpu, key=lambda k: -cpu[k]))
     p = row["filter_period_ms"]
     print(f"{label:<38} RTF {row['rtf']:.2f} (sim {row['sim_rtf'] or 0:.2f}) | driver "
           f"timeouts {row['driver_timeouts']} lockstep {row['lockstep_timeouts']} fell "
