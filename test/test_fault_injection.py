@@ -12,6 +12,7 @@ import pytest
 
 from safe_legged_c3bf.evaluation.fault_runner import run_fault
 from safe_legged_c3bf.evaluation.faults import FAULTS
+from safe_legged_c3bf.perception.params import ObstacleTrackerParams
 from safe_legged_c3bf.safety.params import FilterParams
 
 GAIT_LAG = 0.3  # s: the gait controller's own stop after a zero command (a trot step)
@@ -32,6 +33,10 @@ def _stopping_time(detection: float) -> float:
         ("obstacles_second_publisher", DISCOVERY + FilterParams().obstacles_timeout),
         ("kill_obstacle_tracker", FilterParams().obstacles_timeout),
         ("freeze_safety_filter", 0.5),  # the gait controller's command_timeout
+        ("scan_wall_clock", None),  # sensor perception: a phantom ring on a foreign clock
+        # no detections -> the tracker stops /obstacles -> the filter's input goes stale
+        ("kill_obstacle_detector",
+         ObstacleTrackerParams().detections_timeout + FilterParams().obstacles_timeout),
     ],
 )
 def test_fault_is_handled_as_expected(tmp_path, name, detection):
@@ -48,3 +53,30 @@ def test_fault_is_handled_as_expected(tmp_path, name, detection):
         assert result.time_to_stop <= _stopping_time(detection), summary
     if fault.expect == "end":
         assert result.outcome == "node_died" and fault.node in result.reason, summary
+
+
+def test_sensor_fault_payloads_are_what_their_names_say():
+    """The phantom scan and cloud decode; the truncated cloud does not; no returns are NaN."""
+    import math
+
+    from sensor_msgs.msg import LaserScan, PointCloud2
+
+    from safe_legged_c3bf.evaluation.fault_injector import _fill
+    from safe_legged_c3bf.nodes.messages import laser_scan_points, point_cloud_xyz
+    from safe_legged_c3bf.perception.sensor_points import SensorInputError
+
+    scan = LaserScan()
+    _fill("scan_phantom", scan)
+    assert len(laser_scan_points(scan).points) == 360
+    _fill("scan_no_returns", scan)
+    assert all(math.isnan(r) for r in scan.ranges)
+    assert len(laser_scan_points(scan).points) == 0
+    cloud = PointCloud2()
+    _fill("points_phantom", cloud)
+    assert point_cloud_xyz(cloud).shape == (600, 3)
+    _fill("points_truncated", cloud)
+    with pytest.raises(SensorInputError):
+        point_cloud_xyz(cloud)
+    for fault in FAULTS.values():  # every sensor fault runs the sensor graph
+        if fault.topic in ("/scan", "/points") or fault.node == "obstacle_detector":
+            assert fault.perception == "sensors", fault.name

@@ -38,9 +38,38 @@ def _obstacle(x: float, y: float, nan: bool = False) -> Obstacle:
     return o
 
 
+def _scan(msg, distance: float) -> None:  # noqa: ANN001 - sensor_msgs/LaserScan
+    """A 360-beam scan with every range ``distance`` (m; NaN: no return, REP-117)."""
+    msg.angle_min, msg.angle_increment = -math.pi, 2.0 * math.pi / 360
+    msg.angle_max = msg.angle_min + 359 * msg.angle_increment
+    msg.range_min, msg.range_max = 0.1, 10.0
+    msg.ranges = [distance] * 360
+
+
+def _cloud(msg, points: np.ndarray, truncate: bool = False) -> None:  # noqa: ANN001
+    """An x, y, z float32 PointCloud2 of ``points`` (n, 3); ``truncate``: data cut short."""
+    from sensor_msgs.msg import PointField
+
+    msg.fields = [PointField(name=n, offset=4 * k, datatype=PointField.FLOAT32, count=1)
+                  for k, n in enumerate("xyz")]
+    msg.height, msg.width = 1, len(points)
+    msg.point_step, msg.row_step = 12, 12 * len(points)
+    msg.is_dense = True
+    data = points.astype(np.float32).tobytes()
+    msg.data = data[: len(data) // 3] if truncate else data
+
+
 def _fill(payload: str, msg) -> None:  # noqa: ANN001 - any contract message
     """Fill ``msg`` (a fresh message of the fault's topic) with ``payload``."""
-    if payload == "nan_obstacle":
+    if payload == "scan_phantom":  # a ring of returns 0.6 m around the sensor
+        _scan(msg, 0.6)
+    elif payload == "scan_no_returns":
+        _scan(msg, math.nan)
+    elif payload in ("points_phantom", "points_truncated"):  # a wall 0.8 m ahead
+        y, z = np.meshgrid(np.linspace(-1.0, 1.0, 40), np.linspace(-0.2, 0.5, 15))
+        wall = np.column_stack([np.full(y.size, 0.8), y.ravel(), z.ravel()])
+        _cloud(msg, wall, truncate=payload == "points_truncated")
+    elif payload == "nan_obstacle":
         msg.obstacles = [_obstacle(3.0, 0.0, nan=True)]
     elif payload == "far_obstacle":
         msg.obstacles = [_obstacle(12.0, 8.0)]
@@ -160,6 +189,6 @@ class FaultInjector(Node):
     def _send(self, fault: Fault, pub, msg) -> None:  # noqa: ANN001
         if hasattr(msg, "header"):
             msg.header.stamp = self._stamp(fault)
-            msg.header.frame_id = "odom"
+            msg.header.frame_id = fault.frame
         pub.publish(msg)
         self.sent += 1

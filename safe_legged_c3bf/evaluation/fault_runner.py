@@ -117,6 +117,8 @@ def run_fault(
            str(lease.domain_id), "--out", str(run_dir / "run"), "--stop-on-outcome"]
     if fault.expect == "stop":
         cmd += ["--duration", f"{fault_time + STOP_WATCH:g}"]
+    if fault.perception != "oracle":
+        cmd += ["--perception", fault.perception]
     context = rclpy.Context()
     rclpy.init(context=context, domain_id=lease.domain_id)
     with open(run_dir / "bringup.log", "w", encoding="utf-8") as log:

@@ -27,6 +27,8 @@ from dataclasses import dataclass
 #: Graph nodes a process fault can hit (bringup node names).
 NODES = ("simulator", "obstacle_tracker", "reference_planner", "safety_filter",
          "gait_controller")
+#: Nodes that run only with sensor perception (``--perception sensors``).
+SENSOR_NODES = ("obstacle_detector",)
 
 
 @dataclass(frozen=True)
@@ -44,6 +46,9 @@ class Fault:
         signal: ``SIGKILL`` or ``SIGSTOP`` for a process fault.
         expect: ``continue``, ``safe``, ``stop`` or ``end`` (see the module docstring).
         also: a second fault injected at the same time (a combination).
+        frame: the poisoned messages' header.frame_id (the sensor's own for /scan, /points).
+        perception: the run's obstacle perception, ``oracle`` or ``sensors`` (the faults on
+            /scan, /points and the obstacle detector need the sensor graph).
 
     """
 
@@ -56,6 +61,8 @@ class Fault:
     node: str = ""
     signal: str = ""
     also: str = ""
+    frame: str = "odom"
+    perception: str = "oracle"
 
     @property
     def is_process(self) -> bool:
@@ -86,6 +93,20 @@ def _message_faults() -> list[Fault]:
         Fault("imu_future", "continue", "/imu", "imu_level", "future", rate=100.0),
         Fault("joint_states_wall_clock", "continue", "/joint_states", "joints_zero", "wall",
               rate=100.0),
+        *_sensor_faults(),
+    ]
+
+
+def _sensor_faults() -> list[Fault]:
+    """A second sensor on /scan or /points: a phantom wall, no returns, a broken cloud."""
+    lidar = {"frame": "lidar_link", "perception": "sensors", "rate": 10.0}
+    cloud = {"frame": "depth_link", "perception": "sensors", "rate": 10.0}
+    return [
+        Fault("scan_wall_clock", "continue", "/scan", "scan_phantom", "wall", **lidar),
+        Fault("scan_future", "continue", "/scan", "scan_phantom", "future", **lidar),
+        Fault("scan_no_returns", "continue", "/scan", "scan_no_returns", **lidar),
+        Fault("points_future", "continue", "/points", "points_phantom", "future", **cloud),
+        Fault("points_truncated", "continue", "/points", "points_truncated", **cloud),
     ]
 
 
@@ -94,6 +115,9 @@ def _process_faults() -> list[Fault]:
     for sig, verb in (("SIGKILL", "kill"), ("SIGSTOP", "freeze")):
         for node in NODES:
             out.append(Fault(f"{verb}_{node}", "end", node=node, signal=sig))
+        for node in SENSOR_NODES:
+            out.append(Fault(f"{verb}_{node}", "end", node=node, signal=sig,
+                             perception="sensors"))
     return out
 
 
