@@ -85,6 +85,8 @@ def figures(report: dict, out: Path) -> dict:
         "driver_timeout_times": sim.get("driver_timeout_times") or [],
         "driver_timeout_details": sim.get("driver_timeout_details") or [],
         "lockstep_timeouts": sim.get("lockstep_timeouts"),
+        "pacing_resets": sim.get("pacing_resets"),
+        "pacing_lost": sim.get("pacing_lost"),
         "fell": s.get("fallen"),
         "sim_time": s.get("sim_time"),
         "cpu": s["cpu"]["per_sim_second"],
@@ -115,6 +117,9 @@ def print_row(label: str, row: dict) -> None:
           f"{row['fell']} | CPU {row['cpu_total']:.2f} core-s/sim-s ({nodes}) | filter "
           f"period {p['median']:.1f} ms p99 {p['p99']:.1f} max {p['max']:.1f} missed "
           f"{100 * p['missed_share']:.1f} %")
+    if row.get("pacing_resets"):
+        print(f"{'':<38} physics gave up catching up {row['pacing_resets']} times, "
+              f"{row['pacing_lost']:.2f} s (wall) in all")
     if row["driver_timeout_times"]:
         print(f"{'':<38} driver timeouts at t = {row['driver_timeout_times']} s (sim)")
         for d in row["driver_timeout_details"]:

@@ -126,6 +126,11 @@ class PhysicsLoop:
         #: The first few switches to damping: sim time (s), wall s since the last accepted
         #: command, and wall s the physics was behind its schedule (paced runs) then.
         self.damping_events: list[dict[str, float]] = []
+        #: Paced runs: times physics fell more than max_lag behind its schedule and gave up
+        #: catching up, and the wall seconds given up so (the real-time factor's shortfall).
+        self.pacing_resets = 0
+        self.pacing_lost = 0.0
+        self.pacing_reset_times: list[tuple[float, float]] = []  # the first: (sim s, wall s)
         self._thread = threading.Thread(target=self._run, name=THREAD_NAME, daemon=True)
 
     # ------------------------------------------------------------------ control
@@ -257,6 +262,11 @@ class PhysicsLoop:
                 if delay > 0.0:
                     return "sleep", delay
                 if -delay > self._max_lag:  # cannot keep up: stop catching up
+                    self.pacing_resets += 1
+                    self.pacing_lost += -delay
+                    if len(self.pacing_reset_times) < 20:
+                        self.pacing_reset_times.append((round(self._sim.time, 3),
+                                                        round(-delay, 4)))
                     self._anchor = (now, self._sim.time)
             self._advance(self._steps_to_boundary())
             if self._done:
