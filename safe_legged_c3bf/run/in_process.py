@@ -78,6 +78,7 @@ class InProcessLauncher(Launcher):
 
     def start(self, session: Session) -> None:
         """Create the recorder and the graph nodes and add them to the executor."""
+        from safe_legged_c3bf.nodes.ros_common import freeze_startup_objects
         from safe_legged_c3bf.run.recorder import RecorderNode
 
         plan = session.plan
@@ -103,6 +104,7 @@ class InProcessLauncher(Launcher):
                 ) from None
             self.nodes.append((spec.name, node))
             self._executor.add_node(node)
+        freeze_startup_objects()  # see ros_common: full collections otherwise stall the nodes
 
     def check(self) -> Outcome | None:
         """The run completes when the simulator node says it finished the scenario."""
