@@ -262,12 +262,7 @@ class PhysicsLoop:
                 if delay > 0.0:
                     return "sleep", delay
                 if -delay > self._max_lag:  # cannot keep up: stop catching up
-                    self.pacing_resets += 1
-                    self.pacing_lost += -delay
-                    if len(self.pacing_reset_times) < 20:
-                        self.pacing_reset_times.append((round(self._sim.time, 3),
-                                                        round(-delay, 4)))
-                    self._anchor = (now, self._sim.time)
+                    self._give_up_catching_up(now, -delay)
             self._advance(self._steps_to_boundary())
             if self._done:
                 return "stop", 0.0
@@ -278,6 +273,14 @@ class PhysicsLoop:
                 if delay > 0.0:
                     return "sleep", delay
             return "go", 0.0
+
+    def _give_up_catching_up(self, now: float, lag: float) -> None:
+        """Physics is ``lag`` wall s behind its schedule: count it, pace from now on."""
+        self.pacing_resets += 1
+        self.pacing_lost += lag
+        if len(self.pacing_reset_times) < 20:
+            self.pacing_reset_times.append((round(self._sim.time, 3), round(lag, 4)))
+        self._anchor = (now, self._sim.time)
 
     def _lockstep_timed_out(self, now: float) -> None:
         """No command for the last state in time: count, warn, advance with the previous one."""
