@@ -40,6 +40,7 @@ from safe_legged_c3bf.safety import StampGate, StampVerdict
 from safe_legged_c3bf_msgs.msg import MotorCommand
 
 _SLOW_TICK = 0.02  # wall s: a tick slower than this is logged (the drivers time out at 0.1 s)
+_STATE_GAP = 0.05  # wall s between two states beyond which the gap is logged
 
 
 class GaitControllerNode(Node):
@@ -73,6 +74,7 @@ class GaitControllerNode(Node):
         self._ticks = 0
         self._tick_wall = 0.0
         self._tick_max = 0.0  # wall s of the slowest tick
+        self._last_imu_wall: float | None = None  # wall s of the last accepted /imu
         self._command_stale = True
         self._start_subscribers = int(p.start_subscribers)
         self._start_wait = float(p.start_wait)
@@ -141,8 +143,23 @@ class GaitControllerNode(Node):
             self._reject("imu", "non_finite")
             return
         if self._stamp_ok("imu", msg.header.stamp):
+            self._note_state_gap(ros_common.from_time_msg(msg.header.stamp))
             self._imu = msg
             self._maybe_tick()
+
+    def _note_state_gap(self, t: float) -> None:
+        """Log a state that arrives more than 50 ms of wall time after the previous one.
+
+        Once physics runs, states come every 4-5 ms of sim time; a long gap means the state
+        did not reach this node (or its executor was held) and the motor drivers may damp.
+        """
+        now = time.monotonic()
+        last, self._last_imu_wall = self._last_imu_wall, now
+        running = self._imu is not None and ros_common.from_time_msg(self._imu.header.stamp) > 0
+        if last is not None and running and now - last > _STATE_GAP:  # not the wait at t = 0
+            self.get_logger().warn(
+                f"no state for {(now - last) * 1e3:.0f} ms (wall) before the state of t={t:.3f} s"
+            )
 
     def _on_joints(self, msg: JointState) -> None:
         if len(msg.position) != len(msg.name) or not all(
@@ -238,7 +255,12 @@ class GaitControllerNode(Node):
         msg.q, msg.dq, msg.kp, msg.kd, msg.tau = (
             cmd.q.tolist(), cmd.dq.tolist(), cmd.kp.tolist(), cmd.kd.tolist(), cmd.tau.tolist()
         )
+        start = time.perf_counter()
         self._pub.publish(msg)
+        took = time.perf_counter() - start
+        if took > _SLOW_TICK:
+            self.get_logger().warn(f"publishing the command for t={t:.3f} s took "
+                                   f"{took * 1e3:.0f} ms")
         self._last_msg = msg
         self._answered = (self._imu, self._joints)
 
