@@ -140,9 +140,6 @@ def main(args: list[str] | None = None) -> int:
 
         print("\n".join(available_scenarios()))
         return EXIT_OK
-    from safe_legged_c3bf.run.middleware import use_asynchronous_publishing
-
-    use_asynchronous_publishing()  # for this process and every node it starts
     if opts.deploy:
         return _deploy(opts)
     lease = None

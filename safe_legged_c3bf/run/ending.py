@@ -70,7 +70,6 @@ def _run_facts(session: Session) -> dict[str, Any]:
         "exit_code": outcome.exit_code,
         "command": sys.argv,
         "ros_domain_id": os.environ.get("ROS_DOMAIN_ID"),
-        "rmw_publication_mode": os.environ.get("RMW_FASTRTPS_PUBLICATION_MODE"),
         "scenario_file": str(plan.scenario_file),
         # no node process started (in-process, or stopped before any): the planned modules
         "nodes": session.launcher.node_table() or {
