@@ -48,15 +48,12 @@ def _scan(msg, distance: float) -> None:  # noqa: ANN001 - sensor_msgs/LaserScan
 
 def _cloud(msg, points: np.ndarray, truncate: bool = False) -> None:  # noqa: ANN001
     """An x, y, z float32 PointCloud2 of ``points`` (n, 3); ``truncate``: data cut short."""
-    from sensor_msgs.msg import PointField
+    from safe_legged_c3bf.nodes.simulator.sensor_publisher import fill_cloud, xyz_fields
 
-    msg.fields = [PointField(name=n, offset=4 * k, datatype=PointField.FLOAT32, count=1)
-                  for k, n in enumerate("xyz")]
-    msg.height, msg.width = 1, len(points)
-    msg.point_step, msg.row_step = 12, 12 * len(points)
-    msg.is_dense = True
-    data = points.astype(np.float32).tobytes()
-    msg.data = data[: len(data) // 3] if truncate else data
+    msg.fields = xyz_fields()
+    fill_cloud(msg, points)
+    if truncate:
+        msg.data = msg.data[: len(msg.data) // 3]
 
 
 def _fill(payload: str, msg) -> None:  # noqa: ANN001 - any contract message
