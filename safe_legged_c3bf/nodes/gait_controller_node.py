@@ -75,6 +75,7 @@ class GaitControllerNode(Node):
         self._tick_wall = 0.0
         self._tick_max = 0.0  # wall s of the slowest tick
         self._last_imu_wall: float | None = None  # wall s of the last accepted /imu
+        self._last_imu_t = 0.0  # its stamp (sim s)
         self._command_stale = True
         self._start_subscribers = int(p.start_subscribers)
         self._start_wait = float(p.start_wait)
@@ -155,7 +156,7 @@ class GaitControllerNode(Node):
         """
         now = time.monotonic()
         last, self._last_imu_wall = self._last_imu_wall, now
-        running = self._imu is not None and ros_common.from_time_msg(self._imu.header.stamp) > 0
+        running, self._last_imu_t = self._last_imu_t > 0.0, t
         if last is not None and running and now - last > _STATE_GAP:  # not the wait at t = 0
             self.get_logger().warn(
                 f"no state for {(now - last) * 1e3:.0f} ms (wall) before the state of t={t:.3f} s"
