@@ -155,25 +155,32 @@ def test_node_publishes_state_and_consumes_commands(ros_executor, tmp_path):
     assert summary["collision_count"] == 0 and summary["driver_timeouts"] == 0
 
 
-def test_real_time_factor_paces_physics(ros_executor, tmp_path):
+def _paced_run(executor, tmp_path, name: str, answer: bool) -> dict:
+    """test_minimal for 0.5 s at real-time factor 1; the probe sends a first command and
+    answers every state (``answer``) or none; the simulator's summary."""
     scenario = yaml.safe_load(config_path("scenarios", "test_minimal.yaml").read_text())
-    scenario.update(duration=0.5, name="paced")
-    path = tmp_path / "paced.yaml"
+    scenario.update(duration=0.5, name=name)
+    path = tmp_path / f"{name}.yaml"
     path.write_text(yaml.safe_dump(scenario))
-    node = make_node(ros_executor, scenario=str(path), real_time_factor=1.0)
-    probe = Probe(ros_executor, node, name="paced_probe")
-    assert wait_for_discovery(ros_executor, probe.pub)
-    probe.answer = True
+    node = make_node(executor, scenario=str(path), real_time_factor=1.0)
+    probe = Probe(executor, node, name=f"{name}_probe")
+    assert wait_for_discovery(executor, probe.pub)
+    probe.answer = answer
     probe.pub.publish(probe.command(to_time_msg(0.0)))
-    assert spin_until(ros_executor, lambda: node.finished, 20)
+    assert spin_until(executor, lambda: node.finished, 20)
     summary = node.summary()
+    for n in (node, probe.node):
+        executor.remove_node(n)
+        n.destroy_node()
+    return summary
+
+
+def test_real_time_factor_paces_physics(ros_executor, tmp_path):
+    summary = _paced_run(ros_executor, tmp_path, "paced", answer=True)
     # Never ahead of the schedule by more than one 4 ms state period of sim time; behind it
     # only as far as a busy machine makes it.
     assert 0.05 < summary["achieved_real_time_factor"] <= 0.5 / (0.5 - 0.004)
     assert summary["commands_received"] > 10
-    for n in (node, probe.node):
-        ros_executor.remove_node(n)
-        n.destroy_node()
 
 
 def _lockstep_run(executor, scenario_path: str, summary_path: str):
@@ -225,16 +232,7 @@ def test_bad_scenario_parameter(ros_executor, tmp_path):
 
 def test_a_driver_timeout_says_how_late_the_controller_was(ros_executor, tmp_path):
     """Paced by the wall clock, a silent controller shows as wall time since its last command."""
-    scenario = yaml.safe_load(config_path("scenarios", "test_minimal.yaml").read_text())
-    scenario.update(duration=0.5, name="silent")
-    path = tmp_path / "silent.yaml"
-    path.write_text(yaml.safe_dump(scenario))
-    node = make_node(ros_executor, scenario=str(path), real_time_factor=1.0)
-    probe = Probe(ros_executor, node, name="silent_probe")
-    assert wait_for_discovery(ros_executor, probe.pub)
-    probe.pub.publish(probe.command(to_time_msg(0.0)))  # one command, then silence
-    assert spin_until(ros_executor, lambda: node.finished, 20)
-    summary = node.summary()
+    summary = _paced_run(ros_executor, tmp_path, "silent", answer=False)  # one command only
     assert summary["driver_timeouts"] == 1
     (event,) = summary["driver_timeout_details"]
     assert event["t"] == pytest.approx(0.1, abs=0.01)
@@ -242,6 +240,3 @@ def test_a_driver_timeout_says_how_late_the_controller_was(ros_executor, tmp_pat
     # physics was on schedule (the timeout is the controller's, not a catch-up burst).
     assert event["wall_since_command"] > 0.08
     assert event["behind_schedule"] < 0.05
-    for n in (node, probe.node):
-        ros_executor.remove_node(n)
-        n.destroy_node()
