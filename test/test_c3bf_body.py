@@ -14,6 +14,8 @@ from safe_legged_c3bf.c3bf import (
     Plane,
     SafetyFilter,
     UnicycleHeightModel,
+    UnicycleLateralHeightModel,
+    UnicycleLateralModel,
     UnicycleModel,
     XZDoubleIntegratorModel,
     c3bf_value,
@@ -30,10 +32,12 @@ MODELS = [
     HolonomicModel(),
     HolonomicHeightModel(),
     XZDoubleIntegratorModel(),
+    UnicycleLateralModel(),
+    UnicycleLateralHeightModel(),
 ]
 RANGES = {"x": (-5, 5), "y": (-5, 5), "theta": (-np.pi, np.pi), "v": (-1.5, 3.0),
           "omega": (-2.0, 2.0), "z": (0.1, 0.6), "vz": (-1.0, 1.0), "vx": (-3, 3),
-          "vy": (-3, 3)}
+          "vy": (-3, 3), "v_l": (-1, 1)}
 
 
 def _state(model, rng):

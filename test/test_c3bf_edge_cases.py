@@ -16,6 +16,8 @@ from safe_legged_c3bf.c3bf import (
     Plane,
     SafetyFilter,
     UnicycleHeightModel,
+    UnicycleLateralHeightModel,
+    UnicycleLateralModel,
     UnicycleModel,
     XZDoubleIntegratorModel,
     c3bf_lie_derivatives,
@@ -335,6 +337,7 @@ def test_exit_speed_keeps_a_slow_leaver_leaving():
 RADIAL_MODELS = [
     UnicycleModel(offset=0.0), UnicycleModel(offset=0.3), XZDoubleIntegratorModel(),
     HolonomicModel(), UnicycleHeightModel(offset=0.25), HolonomicHeightModel(),
+    UnicycleLateralModel(offset=0.2), UnicycleLateralHeightModel(offset=0.25),
 ]
 
 

@@ -28,6 +28,7 @@ from safe_legged_c3bf.c3bf import (
     Obstacles,
     SafetyFilter,
     UnicycleHeightModel,
+    UnicycleLateralHeightModel,
     UnicycleModel,
     XZDoubleIntegratorModel,
     c3bf_gradient,
@@ -41,9 +42,9 @@ from safe_legged_c3bf.c3bf.domain import MAX_DERIVED, MAX_MAGNITUDE, REF_RATIO_M
 from safe_legged_c3bf.c3bf.lie import PLANE_AXES
 
 MODELS = [UnicycleModel(0.2), XZDoubleIntegratorModel(), HolonomicModel(),
-          UnicycleHeightModel(0.15), HolonomicHeightModel()]
+          UnicycleHeightModel(0.15), HolonomicHeightModel(), UnicycleLateralHeightModel(0.15)]
 RANGES = {"theta": (-np.pi, np.pi), "v": (-1.0, 2.0), "omega": (-1.5, 1.5), "z": (0.1, 0.5),
-          "vz": (-0.8, 0.8), "vx": (-2.0, 2.0), "vy": (-2.0, 2.0)}
+          "vz": (-0.8, 0.8), "vx": (-2.0, 2.0), "vy": (-2.0, 2.0), "v_l": (-0.5, 0.5)}
 SETTINGS = settings(max_examples=150, deadline=None, derandomize=True,
                     suppress_health_check=[HealthCheck.too_slow])
 unit = st.floats(0.0, 1.0)

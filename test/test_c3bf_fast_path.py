@@ -13,6 +13,7 @@ from safe_legged_c3bf.c3bf import (
     Obstacles,
     SafetyFilter,
     UnicycleHeightModel,
+    UnicycleLateralHeightModel,
     UnicycleModel,
     XZDoubleIntegratorModel,
 )
@@ -22,7 +23,7 @@ from safe_legged_c3bf.c3bf.rows import PointRows
 from safe_legged_c3bf.c3bf.working_set import resolve
 
 MODELS = [UnicycleModel(offset=0.2), XZDoubleIntegratorModel(), HolonomicModel(),
-          UnicycleHeightModel(offset=0.15)]
+          UnicycleHeightModel(offset=0.15), UnicycleLateralHeightModel(offset=0.15)]
 
 
 def state(model, rng):

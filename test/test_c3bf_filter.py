@@ -14,6 +14,7 @@ from safe_legged_c3bf.c3bf import (
     Obstacles,
     SafetyFilter,
     UnicycleHeightModel,
+    UnicycleLateralHeightModel,
     UnicycleModel,
     XZDoubleIntegratorModel,
     c3bf_lie_derivatives,
@@ -77,6 +78,7 @@ MODELS = [
     HolonomicModel(),
     UnicycleHeightModel(offset=0.15),
     HolonomicHeightModel(),
+    UnicycleLateralHeightModel(offset=0.2),
 ]
 
 

@@ -15,6 +15,8 @@ from safe_legged_c3bf.c3bf import (
     Obstacles,
     Plane,
     UnicycleHeightModel,
+    UnicycleLateralHeightModel,
+    UnicycleLateralModel,
     UnicycleModel,
     XZDoubleIntegratorModel,
     c3bf_gradient,
@@ -38,6 +40,10 @@ MODELS = [
     UnicycleHeightModel(offset=2e-3),
     UnicycleHeightModel(offset=0.3),
     HolonomicHeightModel(),
+    UnicycleLateralModel(offset=0.0),
+    UnicycleLateralModel(offset=0.25),
+    UnicycleLateralHeightModel(offset=0.0),
+    UnicycleLateralHeightModel(offset=0.3),
 ]
 
 RANGES = {
@@ -50,6 +56,7 @@ RANGES = {
     "vz": (-1.0, 1.0),
     "vx": (-3.0, 3.0),
     "vy": (-3.0, 3.0),
+    "v_l": (-1.0, 1.0),
 }
 
 

@@ -12,6 +12,7 @@ from safe_legged_c3bf.c3bf import (
     Obstacles,
     SafetyFilter,
     UnicycleHeightModel,
+    UnicycleLateralHeightModel,
     UnicycleModel,
     XZDoubleIntegratorModel,
     c3bf_lie_derivatives,
@@ -25,11 +26,12 @@ MODELS = [
     HolonomicModel(),
     UnicycleHeightModel(offset=0.15),
     HolonomicHeightModel(),
+    UnicycleLateralHeightModel(offset=0.2),
 ]
 RANGES = {
     "x": (-5, 5), "y": (-5, 5), "theta": (-np.pi, np.pi), "v": (-1.0, 2.5),
     "omega": (-1.5, 1.5), "z": (0.1, 0.5), "vz": (-0.8, 0.8), "vx": (-2.5, 2.5),
-    "vy": (-2.5, 2.5),
+    "vy": (-2.5, 2.5), "v_l": (-1.0, 1.0),
 }
 SETTINGS = settings(max_examples=250, deadline=None, derandomize=True,
                     suppress_health_check=[HealthCheck.too_slow])

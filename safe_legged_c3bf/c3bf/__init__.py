@@ -9,6 +9,7 @@ from .body import BodyPoint, RobotBody, robot_body
 from .errors import InvalidInputError
 from .filter import SafetyFilter, cbf_closed_form
 from .geometry import EllipseObstacle, Obstacles, Plane, inflated_radius
+from .lateral_models import UnicycleLateralHeightModel, UnicycleLateralModel
 from .lie import PLANE_AXES, BarrierTerms, barrier_terms, c3bf_lie_derivatives
 from .models import (
     HolonomicHeightModel,
@@ -39,6 +40,8 @@ __all__ = [
     "RobotModel",
     "SafetyFilter",
     "UnicycleHeightModel",
+    "UnicycleLateralHeightModel",
+    "UnicycleLateralModel",
     "UnicycleModel",
     "XZDoubleIntegratorModel",
     "barrier_terms",

@@ -14,6 +14,8 @@ l_x s + l_y c)`` the rotated offset and ``e^\perp = (-(l_x s + l_y c), l_x c - l
   ``dV/dt = a (c, s) + alpha e^\perp + v w (-s, c) - w^2 e``: drift ``v w (-s, c) - w^2 e``,
   input columns ``(c, s)`` for ``a`` and ``e^\perp`` for ``alpha``. With ``l_y = 0`` this is the
   paper's body point of offset ``l_x`` (``models.UnicycleModel``).
+* unicycle with lateral speed (``lateral_models``): as the unicycle, plus ``v_l (-s, c)`` in
+  ``V``, ``-w v_l (c, s)`` in the drift and the input column ``(-s, c)`` for ``a_l``.
 * holonomic (``HolonomicModel``, ``HolonomicHeightModel``): the yaw is a parameter held
   constant over a filter step, so the offset is a constant shift: ``V = (vx, vy)``, no drift,
   ``B = R(theta)``; no steering authority (the yaw rate is not in the model).
@@ -31,6 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .lateral_models import UnicycleLateralHeightModel, UnicycleLateralModel
 from .models import (
     HolonomicHeightModel,
     HolonomicModel,
@@ -68,6 +71,25 @@ def _unicycle(x, offsets, height: bool):
     return P, V, A, B
 
 
+def _unicycle_lateral(x, offsets, height: bool):
+    """Offset points of a unicycle with lateral speed (``lateral_models``).
+
+    The unicycle's, plus ``v_l (-s, c)`` in ``V``, ``w (-v_l c, -v_l s)`` in the drift and the
+    ``a_l`` column ``(-s, c)`` (``height``: ``z, vz, v_l`` at indices 5, 6, 7; else ``v_l`` 5).
+    """
+    vl = x[7] if height else x[5]
+    P, V, A, B = _unicycle(x, offsets, height)
+    th, w = x[2], x[4]
+    c, s = np.cos(th), np.sin(th)
+    V[:, 0] -= vl * s
+    V[:, 1] += vl * c
+    A[:, 0] -= w * vl * c
+    A[:, 1] -= w * vl * s
+    col = np.zeros(B.shape[:2] + (1,))
+    col[:, 0, 0], col[:, 1, 0] = -s, c
+    return P, V, A, np.concatenate([B, col], axis=2)
+
+
 def _holonomic(x, yaw, offsets, height: bool):
     """Offset points of a holonomic model (``height``: ``z, vz`` at indices 4, 5)."""
     c, s = np.cos(yaw), np.sin(yaw)
@@ -103,7 +125,8 @@ def offset_point_kinematics(model: RobotModel, x, offsets, yaw=None) -> PointKin
     """Kinematics of ``k`` body points at base-frame ``offsets`` ``(k, 3)`` [m] (one state).
 
     Args:
-        model: One of the five models of ``models`` (exact type).
+        model: One of the five models of ``models`` or the two of ``lateral_models``
+            (exact type).
         x: ``(n_x,)`` state, validated by the caller (the filter).
         offsets: ``(k, 3)`` base-frame offsets ``(l_x, l_y, l_z)`` [m].
         yaw: Yaw [rad] for the holonomic models (a parameter there).
@@ -117,6 +140,8 @@ def offset_point_kinematics(model: RobotModel, x, offsets, yaw=None) -> PointKin
     kind = type(model)
     if kind is UnicycleHeightModel or kind is UnicycleModel:
         parts = _unicycle(x, offsets, kind is UnicycleHeightModel)
+    elif kind is UnicycleLateralHeightModel or kind is UnicycleLateralModel:
+        parts = _unicycle_lateral(x, offsets, kind is UnicycleLateralHeightModel)
     elif kind is HolonomicHeightModel or kind is HolonomicModel:
         parts = _holonomic(x, float(yaw), offsets, kind is HolonomicHeightModel)
     elif kind is XZDoubleIntegratorModel:

@@ -5,7 +5,7 @@ On consecutive control cycles the optimum of the filter's QP (``dense_qp``)
 .. math::  \min_u\ \tfrac12 (u - u_0)^T W (u - u_0)
            \quad\text{s.t.}\quad a_i u \ge b_i,\quad lo \le u \le hi
 
-usually binds the same few constraints (at most ``m``, the number of inputs: 2 or 3) as on
+usually binds the same few constraints (at most ``m``, the number of inputs: 2 to 4) as on
 the previous cycle. For such a working set ``S`` the equality-constrained minimiser is
 
 .. math::  u = u_0 + W^{-1} A_S^T \lambda,\qquad (A_S W^{-1} A_S^T)\,\lambda = b_S - A_S u_0,
@@ -16,7 +16,8 @@ caller, over all rows at once, with DAQP's own primal tolerance). :func:`resolve
 ``|S| x |S|`` system on floats; the caller (``fast_path``) starts from the last optimum's
 working set and, where it fails, makes at most two of the active-set method's moves (drop the
 constraint of the most negative multiplier, or add the most violated row) before it leaves
-the QP to DAQP, which then solves from its own warm start as before.
+the QP to DAQP, which then solves from its own warm start as before. Working sets of more
+than 3 constraints (only a 4-input model, ``lateral_models``, has them) are left to DAQP.
 
 Why this is written here instead of calling DAQP every cycle: DAQP's Python interface costs
 about 4 us per solve (``update`` and ``solve`` with their argument conversions and result
@@ -30,7 +31,10 @@ from __future__ import annotations
 
 from operator import mul
 
-__all__ = ["WELL_CONDITIONED", "resolve"]
+__all__ = ["MAX_SET", "WELL_CONDITIONED", "resolve"]
+
+MAX_SET = 3
+"""Largest working set solved here (Cramer's rule up to 3 x 3); larger ones go to DAQP."""
 
 WELL_CONDITIONED = 1e-2
 """Smallest ``det(M) / prod(diag(M))`` of the working set's system solved here (Hadamard:
@@ -56,7 +60,7 @@ def resolve(ws, T, ul, lo_l, hi_l, w_inv_l):
 
     """
     k, m, n = len(ws), len(ul), T.shape[1]
-    if not 0 < k <= m:
+    if not 0 < k <= min(m, MAX_SET):
         return None, None
     rows_only = max(ws) < n
     if rows_only and w_inv_l is None and k <= 2:  # the usual case, in fewer steps
