@@ -74,10 +74,11 @@ class Threat:
 
 def escape_limits(scenario: Scenario) -> EscapeLimits:
     """The most permissive of the scenario's filter limits and the gait controller's range."""
+    from safe_legged_c3bf.safety.params import LATERAL_MODELS
     from safe_legged_c3bf.sim.scenario_clearance import filter_params
 
     p = filter_params(scenario)
-    lateral = p.max_lateral_speed if p.model == "holonomic" else 0.0
+    lateral = p.max_lateral_speed if p.model in LATERAL_MODELS else 0.0
     if scenario.robot.kind == "biped":
         from safe_legged_c3bf.gait.biped.params import CommandLimits
 

@@ -21,7 +21,11 @@ from safe_legged_c3bf.interfaces.typed_params import (
     vector,
 )
 
-MODELS = ("unicycle", "holonomic")
+MODELS = ("unicycle", "unicycle_lateral", "holonomic")
+#: Models whose yaw rate is a state (the filter turns the robot); the others side-step.
+TURNING_MODELS = ("unicycle", "unicycle_lateral")
+#: Models with a lateral (side-step) speed.
+LATERAL_MODELS = ("unicycle_lateral", "holonomic")
 BODY_MODELS = ("body", "point")
 ROBOT_BODIES = ("a1", "biped")
 
@@ -37,7 +41,9 @@ class FilterParams(TypedParams):
     )
     model: str = param(
         "unicycle", "-", "dynamics model: 'unicycle' (the paper's, with body-point offset "
-        "'offset') or 'holonomic' (unitless)", one_of(*MODELS),
+        "'offset'), 'unicycle_lateral' (the unicycle with a side-step speed up to "
+        "max_lateral_speed: the filter may also step aside) or 'holonomic' (unitless)",
+        one_of(*MODELS),
     )
     body_model: str = param(
         "point", "-", "'body': every (body point, obstacle) pair of the robot's cover "
@@ -94,7 +100,7 @@ class FilterParams(TypedParams):
     )
     max_reverse_speed: float = param(0.3, "m/s", "limit on backward speed", NON_NEGATIVE)
     max_lateral_speed: float = param(
-        0.3, "m/s", "lateral speed limit |vy| (holonomic only)", POSITIVE
+        0.3, "m/s", "lateral speed limit |vy| (unicycle_lateral and holonomic)", POSITIVE
     )
     max_yaw_rate: float = param(1.0, "rad/s", "yaw rate limit |wz|", POSITIVE)
     max_vertical_speed: float = param(0.2, "m/s", "vertical speed limit |vz|", POSITIVE)
@@ -114,6 +120,10 @@ class FilterParams(TypedParams):
         (1.0, 0.2, 0.5), "-", "unitless QP weights on (a, alpha, a_z) or (a_x, a_y, a_z): a "
         "small weight makes the filter prefer changing that input (e.g. steer or duck rather "
         "than brake)", vector(3, POSITIVE),
+    )
+    lateral_weight: float = param(
+        1.0, "-", "unitless QP weight on the lateral acceleration a_l (unicycle_lateral only; "
+        "the weights above keep theirs)", POSITIVE,
     )
     odom_timeout: float = param(0.2, "s", "staleness limit of /odom (sim time)", POSITIVE)
     obstacles_timeout: float = param(

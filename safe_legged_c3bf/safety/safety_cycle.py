@@ -39,6 +39,7 @@ from safe_legged_c3bf.c3bf import (
     InvalidInputError,
     SafetyFilter,
     UnicycleHeightModel,
+    UnicycleLateralHeightModel,
 )
 from safe_legged_c3bf.c3bf.body import robot_body
 from safe_legged_c3bf.interfaces.base_state import BaseState
@@ -51,7 +52,7 @@ from safe_legged_c3bf.safety.obstacle_input import (
     ObstacleSet,
     to_c3bf_obstacles,
 )
-from safe_legged_c3bf.safety.params import FilterParams
+from safe_legged_c3bf.safety.params import LATERAL_MODELS, TURNING_MODELS, FilterParams
 from safe_legged_c3bf.safety.vanished import Vanished, VanishWatch
 
 
@@ -143,9 +144,14 @@ class SafetyFilterCycle:
 
     def _build(self) -> None:
         p = self.params
+        weights = list(p.weights)
         if p.model == "unicycle":
             model = UnicycleHeightModel(offset=p.offset)
             limits = np.array([p.max_accel, p.max_yaw_accel, p.max_vertical_accel])
+        elif p.model == "unicycle_lateral":
+            model = UnicycleLateralHeightModel(offset=p.offset)
+            limits = np.array([p.max_accel, p.max_yaw_accel, p.max_vertical_accel, p.max_accel])
+            weights.append(p.lateral_weight)
         else:
             model = HolonomicHeightModel()
             limits = np.array([p.max_accel, p.max_accel, p.max_vertical_accel])
@@ -155,7 +161,7 @@ class SafetyFilterCycle:
             p.steer_horizon, cover_half_width(self._body), p.steer_lookahead, p.steer_gain
         )
         self.filter = SafetyFilter(
-            model, gamma=p.gamma, weights=np.array(p.weights), u_min=-limits, u_max=limits,
+            model, gamma=p.gamma, weights=np.array(weights), u_min=-limits, u_max=limits,
             body=self._body, exit_speed=p.exit_speed,
         )
 
@@ -171,7 +177,7 @@ class SafetyFilterCycle:
         """
         p = self.params
         vertical = np.asarray(circles.plane) == 0
-        if (self._body is None or p.model != "unicycle" or p.steer_horizon <= 0.0
+        if (self._body is None or p.model not in TURNING_MODELS or p.steer_horizon <= 0.0
                 or not vertical.any()):
             return ""
         out = self._steering.steer(
@@ -209,7 +215,7 @@ class SafetyFilterCycle:
     # ------------------------------------------------------------------ helpers
     def _clip_velocity(self, v: np.ndarray) -> np.ndarray:
         p = self.params
-        vy_max = p.max_lateral_speed if p.model == "holonomic" else 0.0
+        vy_max = p.max_lateral_speed if p.model in LATERAL_MODELS else 0.0
         return np.array(
             [
                 min(max(v[0], -p.max_reverse_speed), p.max_speed),
@@ -348,8 +354,11 @@ class SafetyFilterCycle:
         The reference input is u_ref = k (v_ref - v), saturated at the input limits.
         """
         p, v = self.params, self._v
-        if p.model == "unicycle":  # inputs (a, alpha, a_z) -> vx, wz, vz
-            state = np.array([pos[0], pos[1], yaw, v[0], v[3], pos[2], v[2]])
+        if p.model in TURNING_MODELS:  # inputs (a, alpha, a_z[, a_l]) -> vx, wz, vz[, vy]
+            state = [pos[0], pos[1], yaw, v[0], v[3], pos[2], v[2]]
+            if p.model == "unicycle_lateral":
+                state.append(v[1])
+            state = np.array(state)
             gains = ((p.k_v, 0, p.max_accel), (p.k_w, 3, p.max_yaw_accel))
         else:  # inputs (a_x, a_y, a_z) -> vx, vy, vz
             c, s = math.cos(yaw), math.sin(yaw)
@@ -358,6 +367,8 @@ class SafetyFilterCycle:
             )
             gains = ((p.k_v, 0, p.max_accel), (p.k_v, 1, p.max_accel))
         gains += ((p.k_z, 2, p.max_vertical_accel),)
+        if p.model == "unicycle_lateral":
+            gains += ((p.k_v, 1, p.max_accel),)
         u_ref = np.array([_sat(k * (ref_arr[j] - v[j]), limit) for k, j, limit in gains])
         return state, u_ref, tuple(j for _, j, _ in gains)
 
@@ -368,7 +379,7 @@ class SafetyFilterCycle:
         p, v = self.params, self._v
         ref_arr = ref.as_array()  # vx, vy, vz, wz
         steered = self._steer(t, ref_arr, circles, pos, yaw)
-        deadlocked = (p.model == "unicycle" and self._body is None  # body: cone steering
+        deadlocked = (p.model in TURNING_MODELS and self._body is None  # body: cone steering
                       and self._deadlock_turn(t, ref_arr, circles, pos, yaw))
         state, u_ref, idx = self._model_problem(ref_arr, pos, yaw)
         u_min, u_max = self._bounds(v, measured, float(pos[2]), dt, idx, float(ref_arr[0]))
@@ -390,7 +401,7 @@ class SafetyFilterCycle:
             new_v[j] = v[j] + u[k] * dt
         if p.model == "unicycle":
             new_v[1] = 0.0
-        else:
+        elif p.model == "holonomic":
             new_v[3] = ref_arr[3]  # yaw does not move the holonomic body point
         self._v = self._clip_velocity(new_v)
         status = _FROM_FILTER[result.status]
@@ -412,7 +423,7 @@ class SafetyFilterCycle:
         present = obstacles.ids if isinstance(obstacles, ObstacleSet) else [
             o.id for o in obstacles
         ]
-        offset = p.offset if p.model == "unicycle" else 0.0
+        offset = p.offset if p.model in TURNING_MODELS else 0.0
         body_xy = (pos[0] + offset * math.cos(yaw), pos[1] + offset * math.sin(yaw))
         speed = math.hypot(self._v[0], self._v[1])
         stopping = speed * speed / (2.0 * p.brake_decel) + speed / p.rate
@@ -474,7 +485,7 @@ class SafetyFilterCycle:
         p = self.params
         hi = self._limits.tolist()
         lo = [-x for x in hi]
-        vy_max = p.max_lateral_speed if p.model == "holonomic" else 0.0
+        vy_max = p.max_lateral_speed if p.model in LATERAL_MODELS else 0.0
         vx_max = p.max_speed
         if self._body is not None:
             vx_max = min(vx_max, max(ref_vx, 0.0) + p.max_speedup)

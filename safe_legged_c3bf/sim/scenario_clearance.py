@@ -110,7 +110,9 @@ def clearance_problems(scenario: Scenario, p: FilterParams) -> list[str]:
     problems = []
     sx, sy = scenario.robot.position
     yaw = scenario.robot.yaw
-    offset = p.offset if p.model == "unicycle" else 0.0
+    from safe_legged_c3bf.safety.params import TURNING_MODELS
+
+    offset = p.offset if p.model in TURNING_MODELS else 0.0
     body = (sx + offset * math.cos(yaw), sy + offset * math.sin(yaw))
     shift = (p.tie_break * math.sin(yaw), -p.tie_break * math.cos(yaw))
     point = "its body point" if offset else "its base"
