@@ -47,6 +47,7 @@ from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
 from safe_legged_c3bf.interfaces.rotations import yaw_from_quaternion
 from safe_legged_c3bf.safety.cone_steering import ConeSteering, cover_half_width
 from safe_legged_c3bf.safety.deadlock_side import deadlock_side
+from safe_legged_c3bf.safety.input_bounds import input_bounds
 from safe_legged_c3bf.safety.obstacle_input import (
     ObstacleInput,
     ObstacleSet,
@@ -477,35 +478,6 @@ class SafetyFilterCycle:
         self, v: np.ndarray, measured: np.ndarray, z: float, dt: float, idx: tuple[int, ...],
         ref_vx: float = math.inf,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Per-cycle input bounds: limits, velocity limits, height range and anti-windup.
-
-        Whole body: the forward speed stays within ``max_speedup`` of the reference's
-        (``ref_vx`` [m/s]); the collision cone is left by turning or braking, not by running.
-        """
-        p = self.params
-        hi = self._limits.tolist()
-        lo = [-x for x in hi]
-        vy_max = p.max_lateral_speed if p.model in LATERAL_MODELS else 0.0
-        vx_max = p.max_speed
-        if self._body is not None:
-            vx_max = min(vx_max, max(ref_vx, 0.0) + p.max_speedup)
-        v_lo = (-p.max_reverse_speed, -vy_max, -p.max_vertical_speed, -p.max_yaw_rate)
-        v_hi = (vx_max, vy_max, p.max_vertical_speed, p.max_yaw_rate)
-        vl, ml = v.tolist(), measured.tolist()
-        for k, j in enumerate(idx):
-            lo[k] = max(lo[k], (v_lo[j] - vl[j]) / dt)
-            hi[k] = min(hi[k], (v_hi[j] - vl[j]) / dt)
-            lead = vl[j] - ml[j]
-            if lead > p.windup_band:
-                hi[k] = min(hi[k], 0.0)
-            elif lead < -p.windup_band:
-                lo[k] = max(lo[k], 0.0)
-        # Height-range barrier (second order, exponential): min_height <= z <= max_height.
-        k_h, vz = p.height_gain, vl[2]
-        kz = idx.index(2)
-        lo[kz] = max(lo[kz], -2.0 * k_h * vz - k_h * k_h * (z - p.min_height))
-        hi[kz] = min(hi[kz], -2.0 * k_h * vz + k_h * k_h * (p.max_height - z))
-        for k in range(len(lo)):
-            if lo[k] > hi[k]:  # conflicting limits: take the middle (limits are soft here)
-                lo[k] = hi[k] = 0.5 * (lo[k] + hi[k])
-        return np.array(lo), np.array(hi)
+        """Per-cycle input bounds (``input_bounds``; whole body: forward speed capped)."""
+        return input_bounds(self.params, self._limits, self._body is not None, v, measured, z,
+                            dt, idx, ref_vx)
