@@ -11,7 +11,10 @@ simulator's /odom: the exact base pose):
   on to the scenario's end. Such a run is a success although the goal was not reached;
 * ``creep``: its forward progress over that window (m);
 * ``unsurvivable``, ``unsurvivable_detail``: a mover no controller could have escaped
-  (:mod:`.unsurvivable`); collisions in such runs are counted in their own column.
+  (:mod:`.unsurvivable`); collisions in such runs are counted in their own column;
+* ``leaders``: the slower movers ahead on the path going the robot's way, '+'-joined ('' when
+  none), and ``overtook``: the robot got past every one of them (:mod:`.overtaking`; None
+  without leaders or ground truth).
 
 The outcome is classified again afterwards (``stopped_impassable`` instead of
 ``goal_not_reached``). Rows without a readable scenario or time series keep None.
@@ -25,13 +28,14 @@ from typing import Any
 import numpy as np
 
 from safe_legged_c3bf.evaluation.impassable import held_stop, impassable_obstacles
+from safe_legged_c3bf.evaluation.overtaking import leaders, overtaken
 from safe_legged_c3bf.evaluation.unsurvivable import unsurvivable_threats
 
 #: The run must have lasted to within this of the scenario's duration (s) to count as held.
 END_TOLERANCE = 0.5
 #: Fields added by :func:`annotate`.
 FIELDS = ("impassable", "stopped_before_impassable", "creep", "unsurvivable",
-          "unsurvivable_detail")
+          "unsurvivable_detail", "leaders", "overtook")
 
 
 def read_odom(run_dir: str | Path) -> np.ndarray | None:
@@ -61,10 +65,14 @@ def judge(rec: dict[str, Any], scenario: Any, odom: np.ndarray | None) -> dict[s
         return out
     blockers = impassable_obstacles(scenario)
     out["impassable"] = "+".join("+".join(b.ids) for b in blockers)
+    ahead = leaders(scenario)
+    out["leaders"] = "+".join(o.id for o in ahead)
     if odom is not None:
         threats = unsurvivable_threats(scenario, odom)
         out["unsurvivable"] = bool(threats)
         out["unsurvivable_detail"] = "; ".join(t.describe() for t in threats)
+        if ahead:
+            out["overtook"] = len(overtaken(scenario, odom, ahead)) == len(ahead)
     if blockers and odom is not None:
         stop = held_stop(scenario, odom, blockers)
         if stop is not None:
@@ -85,7 +93,8 @@ def annotate(rec: dict[str, Any], scenario: str, run_dir: str | Path) -> dict[st
     from safe_legged_c3bf.evaluation.runner import classify
 
     if rec.get("variant") == "free":
-        rec.update(dict.fromkeys(FIELDS), stopped_before_impassable=False, impassable="")
+        rec.update(dict.fromkeys(FIELDS), stopped_before_impassable=False, impassable="",
+                   leaders="")
         return rec
     try:
         rec.update(judge(rec, _load(scenario), read_odom(run_dir)))

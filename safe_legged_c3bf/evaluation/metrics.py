@@ -18,6 +18,8 @@ computes, per group (metric definitions: doc/evaluation.md):
   ``unsurvivable_runs`` / ``unsurvivable_collided``: flagged runs and those of them with a
   collision (:mod:`.unsurvivable`); ``impassable_runs`` / ``stopped_impassable``: runs with
   an impassable obstacle on the path and those that stopped and held before it;
+  ``leader_runs`` / ``overtook_runs``: runs with a slower mover ahead going the robot's way
+  and those that got past it (:mod:`.overtaking`);
 * ``infeasible_runs``: runs with some time in the filter status RELAXED; ``relaxed_mean``:
   mean share of time in RELAXED (filter-on runs);
 * min clearance (ground truth, m): min, 10th percentile, median over runs;
@@ -45,8 +47,9 @@ RATES = ("collision_rate", "fall_rate", "goal_rate", "success_rate")
 SUMMARY_COLUMNS = (
     "runs", "run_failures", "valid", "collision_rate", "collisions", "unsurvivable_runs",
     "unsurvivable_collided", "fall_rate", "goal_rate", "impassable_runs", "stopped_impassable",
-    "success_rate", "infeasible_runs", "relaxed_mean", "clearance_min", "clearance_p10",
-    "clearance_median", "overhead_mean_s", "overhead_max_s", "overhead_mean_pct",
+    "leader_runs", "overtook_runs", "success_rate", "infeasible_runs", "relaxed_mean",
+    "clearance_min", "clearance_p10", "clearance_median", "overhead_mean_s", "overhead_max_s",
+    "overhead_mean_pct",
     "intervention_mean", "solve_median_ms", "solve_p99_max_ms", "solve_max_ms",
 )
 #: SUMMARY_COLUMNS with every rate followed by its interval, and the collision-rate bound.
@@ -57,8 +60,8 @@ SUMMARY_CSV_COLUMNS = tuple(
 #: Columns of the side-by-side table of the filter's body models (same seeds).
 BODY_MODEL_COLUMNS = (
     "runs", "valid", "collisions", "unsurvivable_runs", "unsurvivable_collided", "goal_rate",
-    "impassable_runs", "stopped_impassable", "success_rate", "intervention_mean",
-    "relaxed_mean", "clearance_min", "clearance_median",
+    "impassable_runs", "stopped_impassable", "leader_runs", "overtook_runs", "success_rate",
+    "intervention_mean", "relaxed_mean", "clearance_min", "clearance_median",
 )
 
 
@@ -165,6 +168,8 @@ def summarize_group(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
     out["unsurvivable_collided"] = sum(1 for r in hopeless if r.get("collision"))
     out["impassable_runs"] = sum(1 for r in valid if r.get("impassable"))
     out["stopped_impassable"] = sum(1 for r in valid if r.get("stopped_before_impassable"))
+    out["leader_runs"] = sum(1 for r in valid if r.get("leaders"))
+    out["overtook_runs"] = sum(1 for r in valid if r.get("overtook") is True)
     clearance = finite_values(valid, "min_clearance")
     out["clearance_min"] = _stat(clearance, "min")
     out["clearance_p10"] = _stat(clearance, "p10")

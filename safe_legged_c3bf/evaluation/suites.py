@@ -42,6 +42,10 @@ NAMED_SCENARIOS = PAPER_SCENARIOS | {
     "quadruped_wall": "wall",
     "quadruped_crowd": "crowd",
     "biped_crowd": "crowd",
+    # Issue #17: getting past a slower mover ahead (doc/evaluation.md, Scenarios).
+    "quadruped_overtake_cart": "overtake",
+    "biped_overtake_walker": "overtake",
+    "quadruped_corridor_walker": "overtake",
 }
 #: Named scenarios whose straight path clears every obstacle (the unfiltered robot passes
 #: untouched): they test that the filter does not block what the body fits past.
