@@ -24,6 +24,18 @@ def quaternion_to_matrix(quat_xyzw: np.ndarray) -> np.ndarray:
     )
 
 
+def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """(3, 3) rotation R = Rz(yaw) Ry(pitch) Rx(roll) (fixed axes x, then y, then z; rad)."""
+    cr, sr = math.cos(roll), math.sin(roll)
+    cp, sp = math.cos(pitch), math.sin(pitch)
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    return np.array([
+        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+        [-sp, cp * sr, cp * cr],
+    ])
+
+
 def quaternion_to_rpy(quat_xyzw: np.ndarray) -> np.ndarray:
     """Roll, pitch, yaw (rad, ZYX convention) of a quaternion given as (x, y, z, w)."""
     x, y, z, w = np.asarray(quat_xyzw, dtype=float) / np.linalg.norm(quat_xyzw)

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from safe_legged_c3bf.interfaces.rotations import rpy_to_matrix
+
 #: Frame of the 2-D LiDAR (``/scan``).
 LIDAR_FRAME = "lidar_link"
 #: Frame of the forward 3-D sensor (``/points``).
@@ -48,18 +50,6 @@ class SensorMount:
         out[:3, :3] = self.rotation()
         out[:3, 3] = self.xyz
         return out
-
-
-def rpy_to_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """(3, 3) rotation R = Rz(yaw) Ry(pitch) Rx(roll) (fixed axes x, then y, then z; rad)."""
-    cr, sr = math.cos(roll), math.sin(roll)
-    cp, sp = math.cos(pitch), math.sin(pitch)
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    return np.array([
-        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-        [-sp, cp * sr, cp * cr],
-    ])
 
 
 # A1: trunk collision box 0.267 x 0.194 x 0.114 m about the base origin (top at +0.057 m).

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from safe_legged_c3bf.interfaces.rotations import rpy_to_matrix
+
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Cross product over the last axis (3,) of broadcastable arrays (faster than np.cross)."""
@@ -47,9 +49,8 @@ def rot_z(a: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
-def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """Rotation matrix Rz(yaw) Ry(pitch) Rx(roll) (ZYX convention)."""
-    return rot_z(yaw) @ rot_y(pitch) @ rot_x(roll)
+#: Rotation matrix Rz(yaw) Ry(pitch) Rx(roll) (ZYX convention), ``interfaces.rotations``.
+rpy_matrix = rpy_to_matrix
 
 
 #: joint axes of one leg in the order hip yaw, hip roll, hip pitch, knee, ankle pitch, ankle roll.
