@@ -24,6 +24,7 @@ from pathlib import Path
 from safe_legged_c3bf.run.outcome import EXIT_OK, EXIT_STARTUP, StartupError
 from safe_legged_c3bf.run.plan import make_plan
 from safe_legged_c3bf.run.session import OUTCOME_HOLD, Session
+from safe_legged_c3bf.sim.scenario_sections import PERCEPTION_SOURCES
 
 DEFAULT_SCENARIO = "quadruped_default"
 
@@ -43,7 +44,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--gui", action="store_true", help="open the PyBullet GUI (needs a display)")
     p.add_argument("--no-filter", action="store_true",
                    help="run the safety filter disabled (pass-through), for comparison")
-    p.add_argument("--perception", choices=("oracle", "sensors"),
+    p.add_argument("--perception", choices=PERCEPTION_SOURCES,
                    help="where obstacle detections come from: the simulator's oracle (noisy "
                    "true shapes) or the obstacle detector on the simulated LiDAR and 3-D "
                    "sensor (default: the scenario's perception.source, else oracle)")

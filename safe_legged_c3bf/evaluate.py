@@ -44,6 +44,7 @@ from safe_legged_c3bf.evaluation.suites import (
     DEFAULT_RANDOM_SEEDS,
     NAMED_SCENARIOS,
     PAPER_SCENARIOS,
+    PERCEPTION_SOURCES,
     SUITES,
     Case,
     body_model_supported,
@@ -96,7 +97,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="run the filter once per body model (filter.body_model: point, the "
                    "paper's single body point, and body, the whole body) on the same "
                    "scenarios and seeds, and tabulate them side by side")
-    p.add_argument("--perception", choices=("oracle", "sensors"),
+    p.add_argument("--perception", choices=PERCEPTION_SOURCES,
                    help="every run's perception: the simulator's oracle detections or the "
                    "obstacle detector on simulated sensors (default: each scenario's own)")
     p.add_argument("--compare-perception", action="store_true",

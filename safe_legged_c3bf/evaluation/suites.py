@@ -20,6 +20,9 @@ from typing import Any
 import yaml
 
 from safe_legged_c3bf.evaluation.runner import RunSpec
+from safe_legged_c3bf.sim.scenario_sections import (
+    PERCEPTION_SOURCES as SCENARIO_PERCEPTION_SOURCES,
+)
 
 #: Evaluation scenarios in config/scenarios: name -> kind (robot comes from the file).
 PAPER_SCENARIOS = {
@@ -177,8 +180,8 @@ def body_model_supported() -> bool:
     return "body_model" in getattr(FilterParams, "__dataclass_fields__", {})
 
 
-#: Perception sources compared by ``--compare-perception``.
-PERCEPTION_SOURCES = ("oracle", "sensors")
+#: Perception sources compared by ``--compare-perception``: every source of the scenario format.
+PERCEPTION_SOURCES = SCENARIO_PERCEPTION_SOURCES
 
 
 def plan_runs(cases: list[Case], opts: argparse.Namespace, out: Path, suite: str) -> list:

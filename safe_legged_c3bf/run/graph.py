@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from safe_legged_c3bf.run.outcome import StartupError
+from safe_legged_c3bf.sim.scenario_sections import PERCEPTION_SOURCES
 
 NODE_PACKAGE = "safe_legged_c3bf.nodes"
 #: Graph nodes in start order: (name, module). The gait controller's robot comes from the
@@ -24,8 +25,6 @@ GRAPH_NODES = (
     ("gait_controller", f"{NODE_PACKAGE}.gait_controller_node"),
 )
 NODE_NAMES = tuple(name for name, _ in GRAPH_NODES)
-#: Perception sources: the simulator's oracle detections, or the detector on simulated sensors.
-PERCEPTION_SOURCES = ("oracle", "sensors")
 #: The nodes a deployment on a real robot runs (the planner only on request).
 DEPLOY_NODES = ("obstacle_detector", "obstacle_tracker", "reference_planner", "safety_filter")
 RECORDER_MODULE = "safe_legged_c3bf.run.recorder"
