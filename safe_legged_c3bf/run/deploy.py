@@ -18,12 +18,12 @@ from __future__ import annotations
 
 import argparse
 import os
-import signal
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
+from safe_legged_c3bf.run.console import StopRequest
 from safe_legged_c3bf.run.graph import graph_for, node_modules
 from safe_legged_c3bf.run.outcome import EXIT_FAILED, EXIT_OK, StartupError
 from safe_legged_c3bf.run.parameters import config_files, robot_profile
@@ -62,28 +62,13 @@ def deploy_specs(opts: argparse.Namespace) -> list[NodeSpec]:
     return specs
 
 
-class _Signals:
-    """SIGINT / SIGTERM set a flag instead of raising (restored on exit)."""
-
-    def __init__(self) -> None:
-        self.signum: int | None = None
-        self._old = {s: signal.signal(s, self._on) for s in (signal.SIGINT, signal.SIGTERM)}
-
-    def _on(self, signum: int, _frame: object) -> None:
-        self.signum = signum
-
-    def restore(self) -> None:
-        for s, handler in self._old.items():
-            signal.signal(s, handler)
-
-
 def run_deploy(opts: argparse.Namespace, run_dir: Path) -> int:
     """Start the pipeline's processes and keep them until a signal; return the exit code."""
     specs = deploy_specs(opts)
     missing = [f"{s.name} ({s.module})" for s in specs if not s.module_available()]
     if missing:
         raise StartupError("node module(s) not installed: " + ", ".join(missing))
-    signals = _Signals()
+    signals = StopRequest()  # SIGINT, SIGTERM and SIGHUP stop the pipeline in order
     supervisor = Supervisor(run_dir / "logs", env=dict(os.environ))
     failed: list[str] = []
     try:
@@ -91,7 +76,7 @@ def run_deploy(opts: argparse.Namespace, run_dir: Path) -> int:
             supervisor.start(spec)
         print(f"deploy: {', '.join(s.name for s in specs)} running ({opts.robot}); "
               f"logs in {run_dir / 'logs'}; Ctrl-C stops", flush=True)
-        while signals.signum is None:
+        while not signals:
             time.sleep(0.2)
             for proc in supervisor.newly_exited():
                 line = f"node {proc.name} (pid {proc.pid}) {describe_returncode(proc.poll())}"
