@@ -9,6 +9,7 @@
 Usage: python benchmarks/filter_node_latency.py [--obstacles 10] [--cycles 500]
        [--body-model point|body]   (body: the whole-body filter, one row per body point and
                                     obstacle of the A1's cover; default: the node's default)
+       [--model unicycle|unicycle_lateral|holonomic]   (the filter's dynamics model)
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ from rosgraph_msgs.msg import Clock  # noqa: E402
 from safe_legged_c3bf.interfaces import topics  # noqa: E402
 from safe_legged_c3bf.nodes import ros_common  # noqa: E402
 from safe_legged_c3bf.nodes.safety_filter_node import SafetyFilterNode  # noqa: E402
+from safe_legged_c3bf.safety.params import BODY_MODELS, MODELS  # noqa: E402
 from safe_legged_c3bf_msgs.msg import Obstacle, ObstacleArray  # noqa: E402
 
 
@@ -121,14 +123,15 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--obstacles", type=int, default=10)
     ap.add_argument("--cycles", type=int, default=500)
-    ap.add_argument("--body-model", choices=("point", "body"), default=None)
+    ap.add_argument("--body-model", choices=BODY_MODELS, default=None)
+    ap.add_argument("--model", choices=MODELS, default=None,
+                    help="the filter's dynamics model (default: the node's, unicycle)")
     args = ap.parse_args()
     print(f"ROS_DOMAIN_ID={_LEASE.domain_id}, {args.obstacles} obstacles, {args.cycles} cycles"
-          f", body_model {args.body_model or 'default'}")
-    overrides, ros_args = [], []
-    if args.body_model:
-        overrides = [Parameter("body_model", Parameter.Type.STRING, args.body_model)]
-        ros_args = ["--ros-args", "-p", f"body_model:={args.body_model}"]
+          f", body_model {args.body_model or 'default'}, model {args.model or 'default'}")
+    chosen = {k: v for k, v in (("body_model", args.body_model), ("model", args.model)) if v}
+    overrides = [Parameter(k, Parameter.Type.STRING, v) for k, v in chosen.items()]
+    ros_args = ["--ros-args", *(a for k, v in chosen.items() for a in ("-p", f"{k}:={v}"))]
 
     rclpy.init()
     executor = SingleThreadedExecutor()
