@@ -5,7 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from safe_legged_c3bf.safety.elongated import ELONGATION, MAX_CIRCLES, ellipse_cover
+from safe_legged_c3bf.c3bf.body import robot_body
+from safe_legged_c3bf.safety.elongated import ELONGATION, MAX_BULGE, MAX_CIRCLES, ellipse_cover
 from safe_legged_c3bf.safety.obstacle_input import ObstacleInput, to_c3bf_obstacles
 
 
@@ -49,3 +50,26 @@ def test_orientation_turns_the_row():
                          orientation=math.pi / 2)
     circles, _ = to_c3bf_obstacles([wall], 0.0, 0.0, 0.0, 0.0, 0.0, 0.1)
     assert np.ptp(circles.center[:, 0]) < 1e-9 and np.ptp(circles.center[:, 1]) > 1.5
+
+
+@pytest.mark.parametrize("a, b", [(3.0, 0.1), (1.5, 0.1), (0.6, 0.2), (2.0, 0.02)])
+def test_a_long_wall_keeps_its_width(a, b):
+    """The circles stick out at most MAX_BULGE beyond the minor semi-axis, up to MAX_CIRCLES."""
+    idx, off, r = ellipse_cover([[a, b]], [0.0])
+    if len(idx) < MAX_CIRCLES:
+        assert r.max() <= b + MAX_BULGE + 1e-12
+    assert len(idx) <= MAX_CIRCLES
+
+
+def test_a_corridor_beside_a_walker_stays_open_to_the_body():
+    """Walls 1.6 m apart (3 m long, 0.2 m thick) and a walker (r 0.2 m) in the middle: 0.4 m
+    on each side of it: room for the A1's footprint circles (0.2 m) with 0.05 m margins."""
+    walls = [
+        ObstacleInput(name, 0, np.array([4.0, y, 0.5]), np.zeros(3), np.array([3.0, 0.1]), 1.0)
+        for name, y in (("left", 0.9), ("right", -0.9))
+    ]
+    circles, _ = to_c3bf_obstacles(walls, 0.0, 0.0, 0.0, 0.0, 0.05, 0.1)
+    inner = np.abs(circles.center[:, 1]) - circles.radius  # inner edge (margin included)
+    assert inner.min() >= 0.8 - MAX_BULGE - 0.05 - 1e-9
+    footprint = max(p.radius for p in robot_body("a1").points if p.plane == 0)
+    assert inner.min() - (0.2 + 0.05) >= 2 * footprint  # the body passes beside the walker
