@@ -94,9 +94,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-free", action="store_true",
                    help="skip the obstacle-free reference runs (no time-to-goal overhead)")
     p.add_argument("--compare-body-models", action="store_true",
-                   help="run the filter once per body model (filter.body_model: point, the "
-                   "paper's single body point, and body, the whole body) on the same "
-                   "scenarios and seeds, and tabulate them side by side")
+                   help="run the filter once per body model on the same scenarios and "
+                   "seeds, and tabulate them side by side: point (the paper's single body "
+                   "point), body (the whole body) and body_lateral (the whole body with "
+                   "model: unicycle_lateral, which may also side-step)")
     p.add_argument("--perception", choices=PERCEPTION_SOURCES,
                    help="every run's perception: the simulator's oracle detections or the "
                    "obstacle detector on simulated sensors (default: each scenario's own)")

@@ -5,7 +5,12 @@ from __future__ import annotations
 import yaml
 
 from safe_legged_c3bf import evaluate
-from safe_legged_c3bf.evaluation.suites import BODY_MODELS, plan_cases, plan_runs
+from safe_legged_c3bf.evaluation.suites import (
+    BODY_MODELS,
+    FILTER_VARIANTS,
+    plan_cases,
+    plan_runs,
+)
 
 
 def plan(tmp_path, *args):
@@ -17,20 +22,24 @@ def plan(tmp_path, *args):
 def test_compare_plans_one_filter_run_per_body_model_on_the_same_scenario(tmp_path):
     cases, specs = plan(tmp_path, "--suite", "random-quadruped", "--seeds", "2",
                         "--compare-body-models")
-    assert BODY_MODELS == ("point", "body")
+    assert BODY_MODELS == ("point", "body", "body_lateral")
     ids = [s.run_id for s in specs]
     for c in cases:
-        assert f"{c.case}__point" in ids and f"{c.case}__body" in ids
+        assert {f"{c.case}__{m}" for m in BODY_MODELS} <= set(ids)
         assert f"{c.case}__filter" not in ids
         assert f"{c.case}__nofilter" in ids and f"{c.case}__free" in ids
     for s in specs:
         if s.body_model:
             data = yaml.safe_load(open(s.scenario, encoding="utf-8"))
-            assert data["filter"]["body_model"] == s.body_model and s.filter_enabled
+            variant = FILTER_VARIANTS[s.body_model]
+            assert {k: data["filter"][k] for k in variant} == variant and s.filter_enabled
+            assert data["filter"]["body_model"] == s.body_model.split("_")[0]
+            assert data["filter"].get("model", "unicycle") == (
+                "unicycle_lateral" if s.body_model == "body_lateral" else "unicycle")
             base = next(c.raw for c in cases if c.case == s.case)
             # Same scenario otherwise: obstacles, robot, goal and the other overrides.
             assert data["obstacles"] == base["obstacles"] and data["goal"] == base["goal"]
-            others = {k: v for k, v in data["filter"].items() if k != "body_model"}
+            others = {k: v for k, v in data["filter"].items() if k not in variant}
             assert others == (base.get("filter") or {})
         else:
             assert s.run_id.endswith(("__nofilter", "__free"))
@@ -39,12 +48,9 @@ def test_compare_plans_one_filter_run_per_body_model_on_the_same_scenario(tmp_pa
 def test_compare_keeps_named_scenarios_and_perception_seeds(tmp_path):
     _, specs = plan(tmp_path, "--scenario", "quadruped_low_bar", "--seeds", "2",
                     "--compare-body-models", "--no-baseline", "--no-free")
-    assert sorted((s.run_id, s.seed, s.body_model) for s in specs) == [
-        ("quadruped_low_bar@seed31__body", 31, "body"),
-        ("quadruped_low_bar@seed31__point", 31, "point"),
-        ("quadruped_low_bar@seed32__body", 32, "body"),
-        ("quadruped_low_bar@seed32__point", 32, "point"),
-    ]
+    assert sorted((s.run_id, s.seed, s.body_model) for s in specs) == sorted(
+        (f"quadruped_low_bar@seed{seed}__{m}", seed, m) for seed in (31, 32) for m in BODY_MODELS
+    )
     data = yaml.safe_load(open(specs[0].scenario, encoding="utf-8"))
     assert data["filter"]["min_height"] == 0.18  # the scenario's own overrides kept
 
@@ -61,4 +67,4 @@ def test_dry_run_lists_the_body_models(tmp_path, capsys):
                           "--out", str(tmp_path)])
     assert code == 0
     out = capsys.readouterr().out
-    assert "body_model point" in out and "body_model body" in out and "4 run(s)" in out
+    assert all(f"body_model {m}" in out for m in BODY_MODELS) and "5 run(s)" in out

@@ -54,9 +54,15 @@ NAMED_SCENARIOS = PAPER_SCENARIOS | {
 #: untouched): they test that the filter does not block what the body fits past.
 CLEAR_PATH_SCENARIOS = frozenset({"quadruped_wall"})
 CI_SCENARIO = "quadruped_ci"
-#: The safety filter's ``body_model`` values compared by ``--compare-body-models``: the
-#: paper's single body point and the whole body.
-BODY_MODELS = ("point", "body")
+#: The safety filter settings compared by ``--compare-body-models`` (name -> the filter
+#: overrides it sets): the paper's single body point, the whole body, and the whole body that
+#: may also side-step (``model: unicycle_lateral``, issue #17).
+FILTER_VARIANTS = {
+    "point": {"body_model": "point"},
+    "body": {"body_model": "body"},
+    "body_lateral": {"body_model": "body", "model": "unicycle_lateral"},
+}
+BODY_MODELS = tuple(FILTER_VARIANTS)
 SUITES = ("paper", "named", "random-quadruped", "random-biped", "all", "ci")
 DEFAULT_RANDOM_SEEDS = 5
 
@@ -157,16 +163,18 @@ def plan_cases(opts: argparse.Namespace, out: Path) -> list[Case]:
 
 
 def write_body_model_variant(raw: dict[str, Any], model: str, path: Path) -> Path:
-    """Write ``raw`` with ``filter.body_model: model`` to ``path`` (YAML); return the path.
+    """Write ``raw`` with variant ``model``'s filter overrides to ``path``; return the path.
 
-    Not validated here: the base scenario was, and the key is the safety filter's
-    ``body_model`` parameter, which the bringup validates against the installed filter
-    (``evaluate --compare-body-models`` refuses to run without it).
+    ``model``: a key of :data:`FILTER_VARIANTS`; the file is YAML.
+
+    Not validated here: the base scenario was, and the keys are the safety filter's
+    parameters, which the bringup validates against the installed filter
+    (``evaluate --compare-body-models`` refuses to run without ``body_model``).
     """
     from safe_legged_c3bf.evaluation import random_scenario as rs
 
     data = dict(raw)
-    data["filter"] = {**(raw.get("filter") or {}), "body_model": model}
+    data["filter"] = {**(raw.get("filter") or {}), **FILTER_VARIANTS[model]}
     data["name"] = f"{raw.get('name', path.stem)}__{model}"
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(rs.scenario_yaml(data), encoding="utf-8")
