@@ -8,6 +8,7 @@ from filter_harness import SimpleRobot
 
 from safe_legged_c3bf.c3bf import InvalidInputError, Obstacles, Plane
 from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
+from safe_legged_c3bf.safety.elongated import MAX_BULGE, MAX_CIRCLES
 from safe_legged_c3bf.safety.obstacle_input import (
     ObstacleInput,
     ObstacleSet,
@@ -22,7 +23,8 @@ def _cover(ob):
     major, minor = max(a, b), min(a, b)
     if major <= 1.5 * minor:
         return [(np.zeros(2), major)]
-    k = min(math.ceil(major / minor), 8)
+    half_cell = math.sqrt((minor + MAX_BULGE) ** 2 - minor * minor)  # bulge <= MAX_BULGE
+    k = min(math.ceil(major / half_cell), MAX_CIRCLES)
     axis = ob.orientation + (0.0 if a >= b else 0.5 * math.pi)
     u = np.array([math.cos(axis), math.sin(axis)])
     return [((-major + (2 * j + 1) * major / k) * u, math.hypot(major / k, minor))
