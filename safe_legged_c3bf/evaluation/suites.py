@@ -58,8 +58,8 @@ CI_SCENARIO = "quadruped_ci"
 #: overrides it sets): the paper's single body point, the whole body, and the whole body that
 #: may also side-step (``model: unicycle_lateral``, issue #17).
 FILTER_VARIANTS = {
-    "point": {"body_model": "point"},
-    "body": {"body_model": "body"},
+    "point": {"body_model": "point", "model": "unicycle"},
+    "body": {"body_model": "body", "model": "unicycle"},
     "body_lateral": {"body_model": "body", "model": "unicycle_lateral"},
 }
 BODY_MODELS = tuple(FILTER_VARIANTS)
