@@ -17,9 +17,11 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from safe_legged_c3bf.interfaces import topics
+from safe_legged_c3bf.safety.safety_cycle import CycleStatus
 
 SHORT = "test_minimal"  # config/scenarios/test_minimal.yaml: 2 s of sim time
 PLOTS = ("top_view.png", "barrier_h.png", "commands.png", "clearance.png")
@@ -381,7 +383,16 @@ def test_sensors_perception_starts_the_detector_and_the_filter_sees_its_obstacle
     assert "obstacle_detector" in s["cpu"]["per_sim_second"]
     sim = json.loads((run_dir / "simulator_summary.json").read_text())
     assert sim["perception_source"] == "sensors" and sim["lidar_scans"] >= 25
-    # the detector's obstacles reached the filter: it filtered against them, not stale inputs
-    shares = s["filter"]["status_share"]
-    assert shares.get("STALE_INPUT", 0.0) < 0.2, shares
+    # The detector's obstacles reached the filter, and once they had it filtered against them
+    # to the end, never against stale inputs. Before the first detection the filter brakes on
+    # stale obstacles; how long that lasts in sim time depends on how fast the detector's
+    # process starts against physics (wall clock: 5 % of this run on a quiet machine, 45 %
+    # with two busy cores beside it), so it is printed, not asserted.
+    with np.load(run_dir / "timeseries.npz") as z:
+        state = np.asarray(z["filter_state"])
+    stale = state[:, 1] == CycleStatus.STALE_INPUT
+    fresh = np.flatnonzero(~stale)
+    assert fresh.size, "the filter never had fresh obstacles"
+    print(f"start-up: stale obstacles until t = {state[fresh[0], 0]:.2f} s")
+    assert not stale[fresh[0]:].any(), state[fresh[0]:][stale[fresh[0]:], 0]
     assert s["filter"]["cycles"] > 100
