@@ -66,15 +66,14 @@ def overtaken(scenario: Scenario, odom: np.ndarray, movers: list[ObstacleConfig]
 
     ``odom``: ground-truth base rows (t, x, y, ...) in odom.
     """
-    from safe_legged_c3bf.sim.obstacles import MotionScript
+    from safe_legged_c3bf.evaluation.random_checks import scripted_centres
 
     start, along, _ = _path(scenario)
     across = np.array([-along[1], along[0]])
     robot = odom[:, 1:3] - start
     passed = []
     for obs in movers:
-        script = MotionScript(obs.position, obs.motion)
-        centres = np.array([script.state(float(t))[0][:2] for t in odom[:, 0]]) - start
+        centres = scripted_centres(obs, odom[:, 0]) - start
         ahead = robot @ along > centres @ along
         beside = np.abs((robot - centres) @ across) < BESIDE
         if bool((ahead & beside).any()):

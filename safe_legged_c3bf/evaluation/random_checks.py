@@ -41,7 +41,7 @@ def _nominal_path(scenario: Scenario, times: np.ndarray, p: RandomProfile) -> np
     return np.array([nominal_robot_position(scenario, t, p) for t in times])
 
 
-def _scripted_centres(obs: ObstacleConfig, times: np.ndarray) -> np.ndarray:
+def scripted_centres(obs: ObstacleConfig, times: np.ndarray) -> np.ndarray:
     """``(len(times), 2)`` x-y centres of ``obs`` along its scripted motion."""
     from safe_legged_c3bf.sim.obstacles import MotionScript
 
@@ -73,7 +73,7 @@ def obstacle_gaps(
             underside = obs.position[2] - max(obs.semi_axes)
             gaps[obs.id] = underside - p.trunk_top if spans else math.inf
             continue
-        centres = _scripted_centres(obs, times)
+        centres = scripted_centres(obs, times)
         dist = ellipse_distance(robot_xy - centres, obs.semi_axes, obs.orientation)
         gaps[obs.id] = float(dist.min() - p.half_width)
     return gaps
@@ -114,7 +114,7 @@ def meeting_walks(
     for obs in scenario.obstacles:
         if obs.plane == "horizontal" or not moving(obs):
             continue
-        centres = _scripted_centres(obs, times)
+        centres = scripted_centres(obs, times)
         k = int(np.argmin(np.linalg.norm(centres - robot_xy, axis=1)))
         steps = np.linalg.norm(np.diff(centres, axis=0), axis=1)
         walks[obs.id] = (float(steps[:k].sum()), float(steps[k:].sum()))
@@ -134,7 +134,7 @@ def start_goal_clearance(scenario: Scenario, dt: float = 0.05) -> tuple[float, f
     for obs in scenario.obstacles:
         if obs.plane == "horizontal":
             continue
-        centres = _scripted_centres(obs, times)
+        centres = scripted_centres(obs, times)
         a = max(obs.semi_axes)
         to_start = min(to_start, float(np.linalg.norm(centres - start, axis=1).min() - a))
         to_goal = min(to_goal, float(np.linalg.norm(centres - goal, axis=1).min() - a))
