@@ -47,47 +47,37 @@ from .models import (
 __all__ = ["offset_point_kinematics"]
 
 
-def _unicycle(x, offsets, height: bool):
-    """Offset points of a unicycle (``height``: state has ``z, vz`` at indices 5, 6)."""
+def _unicycle(x, offsets, height: bool, lateral: bool = False):
+    """Offset points of a unicycle (``height``: state has ``z, vz`` at indices 5, 6).
+
+    ``lateral`` (``lateral_models``): the state's last entry is the side-step speed ``v_l``,
+    which adds ``v_l (-s, c)`` to ``V`` and ``-w v_l (c, s)`` to the drift, and the last input
+    ``a_l`` has the column ``(-s, c)``.
+    """
     th, v, w = x[2], x[3], x[4]
     c, s = np.cos(th), np.sin(th)
     lx, ly, lz = offsets[:, 0], offsets[:, 1], offsets[:, 2]
     ex, ey = lx * c - ly * s, lx * s + ly * c  # rotated offset e
     k = len(offsets)
-    m = 3 if height else 2
+    m = (3 if height else 2) + int(lateral)
+    vl = x[-1] if lateral else 0.0
     P = np.empty((k, 3))
     V = np.zeros((k, 3))
     A = np.zeros((k, 3))
     B = np.zeros((k, 3, m))
     P[:, 0], P[:, 1] = x[0] + ex, x[1] + ey
     P[:, 2] = x[5] + lz if height else 0.0
-    V[:, 0], V[:, 1] = v * c - w * ey, v * s + w * ex
-    A[:, 0], A[:, 1] = -v * w * s - w * w * ex, v * w * c - w * w * ey
+    V[:, 0], V[:, 1] = v * c - vl * s - w * ey, v * s + vl * c + w * ex
+    A[:, 0] = -v * w * s - w * vl * c - w * w * ex
+    A[:, 1] = v * w * c - w * vl * s - w * w * ey
     B[:, 0, 0], B[:, 1, 0] = c, s
     B[:, 0, 1], B[:, 1, 1] = -ey, ex
     if height:
         V[:, 2] = x[6]
         B[:, 2, 2] = 1.0
+    if lateral:
+        B[:, 0, -1], B[:, 1, -1] = -s, c
     return P, V, A, B
-
-
-def _unicycle_lateral(x, offsets, height: bool):
-    """Offset points of a unicycle with lateral speed (``lateral_models``).
-
-    The unicycle's, plus ``v_l (-s, c)`` in ``V``, ``w (-v_l c, -v_l s)`` in the drift and the
-    ``a_l`` column ``(-s, c)`` (``height``: ``z, vz, v_l`` at indices 5, 6, 7; else ``v_l`` 5).
-    """
-    vl = x[7] if height else x[5]
-    P, V, A, B = _unicycle(x, offsets, height)
-    th, w = x[2], x[4]
-    c, s = np.cos(th), np.sin(th)
-    V[:, 0] -= vl * s
-    V[:, 1] += vl * c
-    A[:, 0] -= w * vl * c
-    A[:, 1] -= w * vl * s
-    col = np.zeros(B.shape[:2] + (1,))
-    col[:, 0, 0], col[:, 1, 0] = -s, c
-    return P, V, A, np.concatenate([B, col], axis=2)
 
 
 def _holonomic(x, yaw, offsets, height: bool):
@@ -141,7 +131,7 @@ def offset_point_kinematics(model: RobotModel, x, offsets, yaw=None) -> PointKin
     if kind is UnicycleHeightModel or kind is UnicycleModel:
         parts = _unicycle(x, offsets, kind is UnicycleHeightModel)
     elif kind is UnicycleLateralHeightModel or kind is UnicycleLateralModel:
-        parts = _unicycle_lateral(x, offsets, kind is UnicycleLateralHeightModel)
+        parts = _unicycle(x, offsets, kind is UnicycleLateralHeightModel, lateral=True)
     elif kind is HolonomicHeightModel or kind is HolonomicModel:
         parts = _holonomic(x, float(yaw), offsets, kind is HolonomicHeightModel)
     elif kind is XZDoubleIntegratorModel:
