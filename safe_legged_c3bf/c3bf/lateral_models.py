@@ -55,56 +55,75 @@ def _planar_kin(px, py, th, v, w, vl, l, cos, sin):  # noqa: ANN001, E741 - the 
 
 
 @dataclass(frozen=True)
-class UnicycleLateralModel(RobotModel):
+class _LateralUnicycle(RobotModel):
+    """Both lateral models; the subclasses give the state layout (``_HEIGHT``, ``_DRIVEN``).
+
+    Attributes:
+        offset: Body-point offset ``l`` [m] ahead along the heading.
+
+    """
+
+    offset: float = 0.0
+
+    #: The state has ``z, vz`` at indices 5, 6 (``v_l`` is always the last entry).
+    _HEIGHT: ClassVar[bool] = False
+    #: State index each input drives, in input order.
+    _DRIVEN: ClassVar[tuple[int, ...]] = ()
+
+    def __post_init__(self) -> None:
+        """Validate the offset (finite, ``|l| <= 1e9`` m)."""
+        _offset(self)
+
+    def f(self, x, yaw=None):
+        """Drift ``(v c - v_l s, v s + v_l c, omega, 0, 0[, vz, 0], 0)``."""
+        x = _state(x, self.n_x)
+        th, v, w, vl = x[..., 2], x[..., 3], x[..., 4], x[..., -1]
+        c, s = np.cos(th), np.sin(th)
+        z = np.zeros_like(v)
+        height = [x[..., 6], z] if self._HEIGHT else []
+        return np.stack([v * c - vl * s, v * s + vl * c, w, z, z, *height, z], axis=-1)
+
+    def g(self, x, yaw=None):
+        """Each input drives its own velocity state (``_DRIVEN``)."""
+        x = _state(x, self.n_x)
+        G = np.zeros(x.shape[:-1] + (self.n_x, self.n_u))
+        for j, i in enumerate(self._DRIVEN):
+            G[..., i, j] = 1.0
+        return G
+
+    def _kin(self, xs, yaw, cos, sin):
+        """Body point (module docstring); at height ``z`` with ``V_z = vz`` when it has one."""
+        P, V, A, (ca, cw, cl) = _planar_kin(xs[0], xs[1], xs[2], xs[3], xs[4], xs[-1],
+                                            self.offset, cos, sin)
+        if self._HEIGHT:
+            B = ((ca[0], cw[0], 0.0, cl[0]), (ca[1], cw[1], 0.0, cl[1]), (0.0, 0.0, 1.0, 0.0))
+            return (*P, xs[5]), (*V, xs[6]), (*A, 0.0), B
+        B = ((ca[0], cw[0], cl[0]), (ca[1], cw[1], cl[1]), (0.0, 0.0, 0.0))
+        return (*P, 0.0), (*V, 0.0), (*A, 0.0), B
+
+    def brake_input(self, x, yaw=None, gain=2.0):
+        """``-gain`` times every velocity an input drives, in input order."""
+        gain = checked_scalar("gain", gain, 0.0)
+        x = _state(x, self.n_x)
+        return -gain * x[..., list(self._DRIVEN)]
+
+
+@dataclass(frozen=True)
+class UnicycleLateralModel(_LateralUnicycle):
     """Unicycle with a lateral body-frame speed (x-y plane, vertical obstacles).
 
     State ``(x, y, theta, v, omega, v_l)`` [m, m, rad, m/s, rad/s, m/s]; input
     ``(a, alpha, a_l)`` [m/s^2, rad/s^2, m/s^2]. Body point ``l = offset`` [m] ahead.
     """
 
-    offset: float = 0.0
-
-    def __post_init__(self) -> None:
-        """Validate the offset (finite, ``|l| <= 1e9`` m)."""
-        _offset(self)
-
     state_names: ClassVar[tuple[str, ...]] = ("x", "y", "theta", "v", "omega", "v_l")
     input_names: ClassVar[tuple[str, ...]] = ("a", "alpha", "a_l")
     planes: ClassVar[frozenset[Plane]] = frozenset({Plane.VERTICAL})
-
-    def f(self, x, yaw=None):
-        """Drift ``(v c - v_l s, v s + v_l c, omega, 0, 0, 0)``."""
-        x = _state(x, 6)
-        th, v, w, vl = x[..., 2], x[..., 3], x[..., 4], x[..., 5]
-        c, s = np.cos(th), np.sin(th)
-        z = np.zeros_like(v)
-        return np.stack([v * c - vl * s, v * s + vl * c, w, z, z, z], axis=-1)
-
-    def g(self, x, yaw=None):
-        """``a`` drives ``v``, ``alpha`` drives ``omega``, ``a_l`` drives ``v_l``."""
-        x = _state(x, 6)
-        G = np.zeros(x.shape[:-1] + (6, 3))
-        G[..., 3, 0] = 1.0
-        G[..., 4, 1] = 1.0
-        G[..., 5, 2] = 1.0
-        return G
-
-    def _kin(self, xs, yaw, cos, sin):
-        """Body point (module docstring); no vertical component."""
-        P, V, A, (ca, cw, cl) = _planar_kin(xs[0], xs[1], xs[2], xs[3], xs[4], xs[5],
-                                            self.offset, cos, sin)
-        B = ((ca[0], cw[0], cl[0]), (ca[1], cw[1], cl[1]), (0.0, 0.0, 0.0))
-        return (*P, 0.0), (*V, 0.0), (*A, 0.0), B
-
-    def brake_input(self, x, yaw=None, gain=2.0):
-        """``(-gain v, -gain omega, -gain v_l)``."""
-        gain = checked_scalar("gain", gain, 0.0)
-        x = _state(x, 6)
-        return -gain * x[..., 3:6]
+    _DRIVEN: ClassVar[tuple[int, ...]] = (3, 4, 5)
 
 
 @dataclass(frozen=True)
-class UnicycleLateralHeightModel(RobotModel):
+class UnicycleLateralHeightModel(_LateralUnicycle):
     """Unicycle with a lateral speed plus a vertical axis, for x-y and x-z obstacles.
 
     State ``(x, y, theta, v, omega, z, vz, v_l)``; input ``(a, alpha, a_z, a_l)``: the
@@ -112,43 +131,8 @@ class UnicycleLateralHeightModel(RobotModel):
     Body point ``(P_xy, z)`` with ``P_xy`` of the module docstring, ``V_z = vz``.
     """
 
-    offset: float = 0.0
-
-    def __post_init__(self) -> None:
-        """Validate the offset (finite, ``|l| <= 1e9`` m)."""
-        _offset(self)
-
     state_names: ClassVar[tuple[str, ...]] = ("x", "y", "theta", "v", "omega", "z", "vz", "v_l")
     input_names: ClassVar[tuple[str, ...]] = ("a", "alpha", "a_z", "a_l")
     planes: ClassVar[frozenset[Plane]] = frozenset({Plane.VERTICAL, Plane.HORIZONTAL})
-
-    def f(self, x, yaw=None):
-        """Drift ``(v c - v_l s, v s + v_l c, omega, 0, 0, vz, 0, 0)``."""
-        x = _state(x, 8)
-        th, v, w, vz, vl = x[..., 2], x[..., 3], x[..., 4], x[..., 6], x[..., 7]
-        c, s = np.cos(th), np.sin(th)
-        z = np.zeros_like(v)
-        return np.stack([v * c - vl * s, v * s + vl * c, w, z, z, vz, z, z], axis=-1)
-
-    def g(self, x, yaw=None):
-        """``a`` -> ``v``, ``alpha`` -> ``omega``, ``a_z`` -> ``vz``, ``a_l`` -> ``v_l``."""
-        x = _state(x, 8)
-        G = np.zeros(x.shape[:-1] + (8, 4))
-        G[..., 3, 0] = 1.0
-        G[..., 4, 1] = 1.0
-        G[..., 6, 2] = 1.0
-        G[..., 7, 3] = 1.0
-        return G
-
-    def _kin(self, xs, yaw, cos, sin):
-        """3-D body point (class docstring)."""
-        P, V, A, (ca, cw, cl) = _planar_kin(xs[0], xs[1], xs[2], xs[3], xs[4], xs[7],
-                                            self.offset, cos, sin)
-        B = ((ca[0], cw[0], 0.0, cl[0]), (ca[1], cw[1], 0.0, cl[1]), (0.0, 0.0, 1.0, 0.0))
-        return (*P, xs[5]), (*V, xs[6]), (*A, 0.0), B
-
-    def brake_input(self, x, yaw=None, gain=2.0):
-        """``(-gain v, -gain omega, -gain vz, -gain v_l)``."""
-        gain = checked_scalar("gain", gain, 0.0)
-        x = _state(x, 8)
-        return -gain * np.stack([x[..., 3], x[..., 4], x[..., 6], x[..., 7]], axis=-1)
+    _HEIGHT: ClassVar[bool] = True
+    _DRIVEN: ClassVar[tuple[int, ...]] = (3, 4, 6, 7)
