@@ -10,10 +10,10 @@ from safe_legged_c3bf.gait.biped.leg_ik import (
     leg_forward,
     leg_ik,
     leg_jacobian,
-    rpy_matrix,
     static_torques,
 )
 from safe_legged_c3bf.gait.biped.model import JOINT_NAMES, BipedModel
+from safe_legged_c3bf.interfaces.rotations import rpy_to_matrix
 from safe_legged_c3bf.sim.robots import load_robot, robot_spec
 
 GEOM = LegGeometry((0.0, 0.09, -0.2), 0.3, 0.3, 0.06)
@@ -42,7 +42,7 @@ def test_fk_of_ik_reaches_random_reachable_poses():
         # a foot pose a realistic distance below the hip, with a tilt
         target = np.array([rng.uniform(-0.2, 0.2), 0.09 + rng.uniform(-0.1, 0.1), -0.75])
         target[2] += rng.uniform(-0.05, 0.12)
-        rot = rpy_matrix(*rng.uniform(-0.2, 0.2, 2), rng.uniform(-0.5, 0.5))
+        rot = rpy_to_matrix(*rng.uniform(-0.2, 0.2, 2), rng.uniform(-0.5, 0.5))
         q = leg_ik(GEOM, target, rot)
         p, r = leg_fk(GEOM, q)
         np.testing.assert_allclose(p, target, atol=1e-9)

@@ -15,12 +15,12 @@ import math
 import numpy as np
 
 from safe_legged_c3bf.gait.biped.gait_schedule import LegPhase
-from safe_legged_c3bf.gait.biped.leg_ik import rot_z, rpy_matrix
+from safe_legged_c3bf.gait.biped.leg_ik import rot_z
 from safe_legged_c3bf.gait.biped.model import BipedModel
 from safe_legged_c3bf.gait.biped.params import BipedParams, JointGains
 from safe_legged_c3bf.gait.biped.side import SIDES, Side
 from safe_legged_c3bf.gait.biped.state_estimate import BipedEstimate
-from safe_legged_c3bf.interfaces.rotations import wrap_angle
+from safe_legged_c3bf.interfaces.rotations import rpy_to_matrix, wrap_angle
 
 #: limits of the finite-difference joint rates (rad/s) and accelerations (rad/s^2)
 _MAX_RATE = 8.0
@@ -75,7 +75,7 @@ class JointTargets:
             elapsed: time since the last tick (s).
 
         """
-        r_ik = rpy_matrix(estimate.tilt[0], estimate.tilt[1], estimate.tilt[2])
+        r_ik = rpy_to_matrix(estimate.tilt[0], estimate.tilt[1], estimate.tilt[2])
         p_stance, p_swing = self._torso_positions(estimate, r_ik, ground_z, elapsed)
         q_des = np.zeros(12)
         for side in SIDES:

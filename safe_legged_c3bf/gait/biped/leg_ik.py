@@ -17,8 +17,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from safe_legged_c3bf.interfaces.rotations import rpy_to_matrix
-
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Cross product over the last axis (3,) of broadcastable arrays (faster than np.cross)."""
@@ -47,10 +45,6 @@ def rot_z(a: float) -> np.ndarray:
     """Rotation matrix about z by ``a`` rad."""
     c, s = math.cos(a), math.sin(a)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
-#: Rotation matrix Rz(yaw) Ry(pitch) Rx(roll) (ZYX convention), ``interfaces.rotations``.
-rpy_matrix = rpy_to_matrix
 
 
 #: joint axes of one leg in the order hip yaw, hip roll, hip pitch, knee, ankle pitch, ankle roll.
