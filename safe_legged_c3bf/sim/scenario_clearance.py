@@ -107,11 +107,11 @@ def _rest_positions(obs: ObstacleConfig) -> list[tuple[str, tuple[float, float, 
 
 def clearance_problems(scenario: Scenario, p: FilterParams) -> list[str]:
     """Error lines for a start or goal inside an inflated obstacle (empty when clear)."""
+    from safe_legged_c3bf.safety.params import TURNING_MODELS
+
     problems = []
     sx, sy = scenario.robot.position
     yaw = scenario.robot.yaw
-    from safe_legged_c3bf.safety.params import TURNING_MODELS
-
     offset = p.offset if p.model in TURNING_MODELS else 0.0
     body = (sx + offset * math.cos(yaw), sy + offset * math.sin(yaw))
     shift = (p.tie_break * math.sin(yaw), -p.tie_break * math.cos(yaw))
