@@ -44,10 +44,10 @@ def _data_files():
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
     ]
-    for directory in sorted({os.path.dirname(p) for p in glob("config/**/*.yaml", recursive=True)}):
-        files.append(
-            (f"share/{PACKAGE}/{directory}", sorted(glob(os.path.join(directory, "*.yaml"))))
-        )
+    config = glob("config/**/*.yaml", recursive=True) + glob("config/**/*.xml", recursive=True)
+    for directory in sorted({os.path.dirname(p) for p in config}):
+        files.append((f"share/{PACKAGE}/{directory}",
+                      sorted(p for p in config if os.path.dirname(p) == directory)))
     return files
 
 

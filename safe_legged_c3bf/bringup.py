@@ -123,6 +123,10 @@ def _isolate(opts: argparse.Namespace):  # noqa: ANN202 - DomainLease | None
         if not 0 <= opts.domain_id <= 232:
             raise StartupError("--domain-id must be in 0..232")
         os.environ["ROS_DOMAIN_ID"] = str(opts.domain_id)
+        if os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE") == "LOCALHOST":
+            from safe_legged_c3bf.run.ros_domain import restrict_to_localhost
+
+            restrict_to_localhost(os.environ)  # the same range, without shared memory
         return None
     from safe_legged_c3bf.run.ros_domain import isolate_environment
 
@@ -151,7 +155,9 @@ def main(args: list[str] | None = None) -> int:
         print(f"bringup: start-up failed: {err}", file=sys.stderr)
         return EXIT_STARTUP
     domain = os.environ.get("ROS_DOMAIN_ID", "0")
-    local = os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE") == "LOCALHOST"
+    from safe_legged_c3bf.run.ros_domain import is_localhost_only
+
+    local = is_localhost_only(os.environ)
     print(
         f"bringup: scenario {plan.scenario.name} ({plan.context.robot}, "
         f"{plan.scenario.duration:g} s sim), "

@@ -136,9 +136,10 @@ def main(args: list[str] | None = None) -> int:
     topic = opts.topic if opts.topic.startswith("/") else "/" + opts.topic
     limit = 1 if opts.once else max(opts.n, 0)
     if opts.domain_id is not None:
+        from safe_legged_c3bf.run.ros_domain import restrict_to_localhost
+
         os.environ["ROS_DOMAIN_ID"] = str(opts.domain_id)
-        os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-        os.environ.pop("ROS_LOCALHOST_ONLY", None)
+        restrict_to_localhost(os.environ)
 
     import rclpy
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor

@@ -18,7 +18,9 @@ _ENV, _DOMAIN_LEASE = isolate_environment()
 
 
 def pytest_report_header(config):
-    return f"ROS_DOMAIN_ID={_DOMAIN_LEASE.domain_id} ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST"
+    return " ".join(f"{key}={_ENV[key]}" for key in (
+        "ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE", "FASTRTPS_DEFAULT_PROFILES_FILE")
+        if key in _ENV)
 
 
 @pytest.fixture(scope="session")

@@ -30,7 +30,7 @@ sys.exit(ros_common.run_node(Probe, [sys.argv[0]]))
 
 
 def test_a_node_process_runs_with_its_startup_objects_frozen():
-    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    env = dict(os.environ)  # the session's private domain on localhost (conftest)
     proc = subprocess.run([sys.executable, "-c", _NODE_REPORTS_FREEZE], env=env,
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr[-2000:]

@@ -12,7 +12,7 @@ import pytest
 
 
 def _start_filter_node(log, node_name: str) -> subprocess.Popen:
-    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    env = dict(os.environ)  # the session's private domain on localhost (conftest)
     return subprocess.Popen(
         [sys.executable, "-m", "safe_legged_c3bf.nodes.safety_filter_node",
          "--ros-args", "-r", f"__node:={node_name}"],
@@ -89,7 +89,7 @@ sys.exit(ros_common.run_node(Slow, [sys.argv[0]]))
 @pytest.mark.parametrize("name", ["TERM", "INT"])
 def test_a_signal_while_the_node_is_built_is_a_clean_exit(name):
     """A node is in the graph before its constructor ends; a signal then must not be exit 1."""
-    env = dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    env = dict(os.environ)  # the session's private domain on localhost (conftest)
     proc = subprocess.run(
         [sys.executable, "-c", _SIGNALLED_WHILE_BUILT.replace("{name}", name)],
         env=env, capture_output=True, text=True, timeout=60,

@@ -21,7 +21,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from safe_legged_c3bf.evaluation.faults import FAULTS, Fault
-from safe_legged_c3bf.run.ros_domain import lease_domain
+from safe_legged_c3bf.run.ros_domain import lease_domain, restrict_to_localhost
 
 #: Sim seconds a run goes on after a fault that should stop the robot.
 STOP_WATCH = 6.0
@@ -111,8 +111,8 @@ def run_fault(
     run_dir = Path(out_dir) / fault.name
     run_dir.mkdir(parents=True, exist_ok=True)
     lease = lease_domain()
-    env = dict(os.environ, ROS_DOMAIN_ID=str(lease.domain_id),
-               ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST", PYTHONUNBUFFERED="1")
+    env = dict(os.environ, ROS_DOMAIN_ID=str(lease.domain_id), PYTHONUNBUFFERED="1")
+    restrict_to_localhost(env)
     cmd = [python, "-m", "safe_legged_c3bf.bringup", "--scenario", scenario, "--domain-id",
            str(lease.domain_id), "--out", str(run_dir / "run"), "--stop-on-outcome"]
     if fault.expect == "stop":

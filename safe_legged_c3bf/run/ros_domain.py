@@ -1,8 +1,13 @@
-"""Allocate ROS_DOMAIN_IDs that no other run on this machine is using.
+"""Allocate ROS_DOMAIN_IDs that no other run on this machine is using, on localhost only.
 
 Each allocation holds an exclusive ``flock`` on a lock file for as long as the returned
 object lives (or the process runs), so concurrent test sessions and parallel evaluation jobs
 never hear each other. Domain ids 1..100 are used (valid for Fast DDS; 0 is left to users).
+
+:func:`restrict_to_localhost` keeps discovery on this host the way
+``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` does, but over UDP without Fast DDS's shared
+memory transport, whose port health check stalls a publisher for 333 ms
+(``config/dds/localhost_udp.xml`` says why).
 """
 
 from __future__ import annotations
@@ -15,6 +20,48 @@ from pathlib import Path
 
 _LOCK_DIR = Path(tempfile.gettempdir()) / "safe_legged_c3bf_domains"
 DOMAIN_RANGE = range(1, 101)
+PROFILE_VARIABLE = "FASTRTPS_DEFAULT_PROFILES_FILE"  # the name Fast DDS 2.x reads
+_FAST_DDS_RMW = "rmw_fastrtps_cpp"
+
+
+def localhost_profile() -> Path | None:
+    """The project's Fast DDS profile (UDP, unicast discovery on 127.0.0.1), if installed."""
+    from safe_legged_c3bf.run.config import config_path
+
+    try:
+        path = config_path("dds", "localhost_udp.xml")
+    except FileNotFoundError:
+        return None
+    return path if path.is_file() else None
+
+
+def restrict_to_localhost(env: dict[str, str] | os._Environ) -> None:
+    """Set ``env`` so that ROS 2 discovers participants on this host only.
+
+    With Fast DDS and no profile of the user's own: the project's profile and
+    ``ROS_AUTOMATIC_DISCOVERY_RANGE=SYSTEM_DEFAULT`` (the rmw then leaves the profile's
+    transports alone). Otherwise (another rmw, a user's ``FASTRTPS_DEFAULT_PROFILES_FILE``,
+    the profile not installed): ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``.
+    """
+    env.pop("ROS_LOCALHOST_ONLY", None)
+    profile = localhost_profile()
+    own = env.get(PROFILE_VARIABLE)
+    fast_dds = env.get("RMW_IMPLEMENTATION", _FAST_DDS_RMW) == _FAST_DDS_RMW
+    if profile is None or not fast_dds or (own and Path(own) != profile):
+        env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+        return
+    env[PROFILE_VARIABLE] = str(profile)
+    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "SYSTEM_DEFAULT"
+
+
+def is_localhost_only(env: dict[str, str] | os._Environ) -> bool:
+    """Whether ``env`` restricts discovery to this host (either way above)."""
+    if env.get("ROS_AUTOMATIC_DISCOVERY_RANGE") == "LOCALHOST":
+        return True
+    profile = localhost_profile()
+    own = env.get(PROFILE_VARIABLE)
+    return (env.get("ROS_AUTOMATIC_DISCOVERY_RANGE") == "SYSTEM_DEFAULT" and profile is not None
+            and own is not None and Path(own) == profile)
 
 
 class DomainLease:
@@ -58,6 +105,5 @@ def isolate_environment(env: dict[str, str] | None = None) -> tuple[dict[str, st
     lease = lease_domain()
     target = os.environ if env is None else env
     target["ROS_DOMAIN_ID"] = str(lease.domain_id)
-    target["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-    target.pop("ROS_LOCALHOST_ONLY", None)
+    restrict_to_localhost(target)
     return dict(target), lease
