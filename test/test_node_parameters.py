@@ -13,6 +13,7 @@ from __future__ import annotations
 import importlib
 
 import pytest
+import rclpy
 import yaml
 from rclpy.parameter import Parameter
 
@@ -81,6 +82,11 @@ def test_every_parameter_has_a_unit_a_description_and_an_invalid_example(node):
 
 @pytest.mark.parametrize("node", NODES)
 def test_an_invalid_start_up_value_is_refused_with_the_reason(ros_executor, node):
+    # A node that lives through the loop keeps the context's DDS participant: otherwise every
+    # refused node was the participant's last one, and a participant created and destroyed
+    # per value once stalled the test process for minutes (Fast DDS busy-waits for a
+    # discovery callback in flight when a participant is deleted).
+    ros_executor.add_node(rclpy.create_node("keeper", context=ros_executor.context_for_nodes))
     cls = node_class(node)
     for spec in parameter_class(node).specs():
         for value in invalid_values(spec):

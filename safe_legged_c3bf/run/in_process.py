@@ -60,18 +60,20 @@ class InProcessLauncher(Launcher):
 
     failure_label = "traceback"
 
-    def __init__(self, run_dir: Path, multi_threaded: bool = False) -> None:
-        """Nodes log to ``run_dir/logs/in_process.log``; ``multi_threaded`` executor or not."""
+    def __init__(self, run_dir: Path, executor: str = "single") -> None:
+        """Nodes log to ``run_dir/logs/in_process.log``; ``executor``: events, single, multi."""
         self.shared_log = run_dir / "logs" / "in_process.log"
-        self.multi_threaded = multi_threaded
+        self.executor_kind = executor
         self.nodes: list[tuple[str, Any]] = []
         self._executor = None
         self._own_cpu_start = own_cpu_seconds()
 
     def make_executor(self) -> Any:
-        """A multi-threaded executor (4 threads) with ``--executor multi``, else single."""
-        if not self.multi_threaded:
-            return super().make_executor()
+        """A multi-threaded executor (4 threads) with ``--executor multi``, else as asked."""
+        if self.executor_kind != "multi":
+            from safe_legged_c3bf.nodes.ros_common import make_executor
+
+            return make_executor(self.executor_kind)
         from rclpy.executors import MultiThreadedExecutor
 
         return MultiThreadedExecutor(num_threads=4)

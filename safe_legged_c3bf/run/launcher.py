@@ -9,6 +9,7 @@ this interface only.
 from __future__ import annotations
 
 import argparse
+import os
 from abc import ABC, abstractmethod
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -63,7 +64,10 @@ def make_launcher(opts: argparse.Namespace, run_dir: Path) -> Launcher:
     if opts.in_process:
         from safe_legged_c3bf.run.in_process import InProcessLauncher
 
-        return InProcessLauncher(run_dir, multi_threaded=opts.executor == "multi")
+        return InProcessLauncher(run_dir, executor=opts.executor or "single")
+    from safe_legged_c3bf.nodes.ros_common import EXECUTOR_VARIABLE
     from safe_legged_c3bf.run.processes import ProcessLauncher
+
+    os.environ[EXECUTOR_VARIABLE] = opts.executor or "events"  # read by each node's run_node
 
     return ProcessLauncher(run_dir, video=opts.video is not None, verbose=opts.verbose)

@@ -109,6 +109,11 @@ def _check_output_files(opts: argparse.Namespace) -> None:
         raise StartupError(f"--record {opts.record}: the file must end in .mcap")
 
 
+def _check_executor(opts: argparse.Namespace) -> None:
+    if getattr(opts, "executor", "events") == "multi" and not opts.in_process:
+        raise StartupError("--executor multi needs --in-process (one node per process)")
+
+
 def _write_scenario(run_dir: Path, raw: dict[str, Any]) -> Path:
     """Write the scenario as run to ``run_dir/scenario.yaml`` (what the nodes read)."""
     scenario_file = run_dir / "scenario.yaml"
@@ -126,6 +131,7 @@ def make_plan(opts: argparse.Namespace) -> RunPlan:
 
     raw, scenario = load_scenario_once(opts)
     _check_output_files(opts)
+    _check_executor(opts)
     run_dir = (opts.out or _default_run_dir(scenario.name)).resolve()
     try:
         run_dir.mkdir(parents=True, exist_ok=True)

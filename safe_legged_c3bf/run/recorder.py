@@ -3,8 +3,10 @@
 The file has profile ``ros2``; every channel has message encoding ``cdr`` and a ``ros2msg``
 schema holding the rosbag2-style full message definition (see :mod:`.msgdefs`). Messages are
 received serialized (``raw=True``) and written byte for byte, so recording costs no
-deserialization. Log time is the wall-clock receive time (as ``ros2 bag record``), publish
-time the publisher's source timestamp.
+deserialization. Log time and publish time are the wall-clock receive time (as ``ros2 bag
+record``): the publisher's source timestamp would come with rclpy's MessageInfo, which the
+EventsExecutor the project spins cannot pass to a callback (rclpy 7.1.6: SystemError). The
+messages' own header stamps carry the simulation time.
 
 Run on its own: ``python -m safe_legged_c3bf.run.recorder run.mcap [--topics /odom /cmd_vel]``
 (all contract topics by default); the bringup starts it for ``--record``.
@@ -126,11 +128,10 @@ class RecorderNode(Node):
     def _callback(self, entry: topics.Topic):
         file = self.file
 
-        def on_message(data: bytes, info) -> None:  # noqa: ANN001 - rclpy MessageInfo dict
+        def on_message(data: bytes) -> None:
             now = time.time_ns()
-            source = info.get("source_timestamp", 0) if isinstance(info, dict) else 0
             if not file._stream.closed:
-                file.write(entry, data, now, source or now)
+                file.write(entry, data, now, now)
 
         return on_message
 
