@@ -6,6 +6,8 @@ condition (e.g. discovery) instead of sleeping.
 
 from __future__ import annotations
 
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 
@@ -66,3 +68,28 @@ def wait_for_discovery(executor, publisher, subscriptions: int = 1, timeout: flo
     return spin_until(
         executor, lambda: publisher.get_subscription_count() >= subscriptions, timeout
     )
+
+
+_NODE_PROBE = """
+import gc, os, signal, sys
+from rclpy.node import Node
+from safe_legged_c3bf.nodes import ros_common
+
+class Probe(Node):
+    def __init__(self):
+        super().__init__("node_probe")
+        self.create_timer(0.05, self._tick)
+
+    def _tick(self):
+        print({report}, flush=True)
+        os.kill(os.getpid(), signal.SIGINT)
+
+sys.exit(ros_common.run_node(Probe, [sys.argv[0]]))
+"""
+
+
+def run_node_probe(report: str, env: dict[str, str]) -> subprocess.CompletedProcess:
+    """Run a node process (``ros_common.run_node``) that prints ``report`` (a Python expression
+    over ``self`` and ``gc``) on its first timer tick, then SIGINTs itself; wait for its exit."""
+    return subprocess.run([sys.executable, "-c", _NODE_PROBE.replace("{report}", report)],
+                          env=env, capture_output=True, text=True, timeout=60)

@@ -9,10 +9,9 @@ SingleThreadedExecutor unless ``--executor events`` asks for it.
 from __future__ import annotations
 
 import os
-import subprocess
-import sys
 
 import pytest
+from conftest import run_node_probe
 
 from safe_legged_c3bf.bringup import build_parser
 from safe_legged_c3bf.nodes.ros_common import EXECUTOR_VARIABLE, make_executor
@@ -61,27 +60,8 @@ def test_a_multi_threaded_executor_needs_in_process(tmp_path):
         make_plan(opts)
 
 
-_NODE_REPORTS_EXECUTOR = """
-import os, signal, sys
-from rclpy.node import Node
-from safe_legged_c3bf.nodes import ros_common
-
-class Probe(Node):
-    def __init__(self):
-        super().__init__("executor_probe")
-        self.create_timer(0.05, self._tick)
-
-    def _tick(self):
-        print("executor", type(self.executor).__name__, flush=True)
-        os.kill(os.getpid(), signal.SIGINT)
-
-sys.exit(ros_common.run_node(Probe, [sys.argv[0]]))
-"""
-
-
 def test_a_node_process_spins_the_events_executor_and_stops_cleanly_on_sigint():
     env = {k: v for k, v in os.environ.items() if k != EXECUTOR_VARIABLE}
-    proc = subprocess.run([sys.executable, "-c", _NODE_REPORTS_EXECUTOR], env=env,
-                          capture_output=True, text=True, timeout=60)
+    proc = run_node_probe('"executor", type(self.executor).__name__', env)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert "EventsExecutor" in proc.stdout, proc.stdout
