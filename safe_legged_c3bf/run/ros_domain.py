@@ -45,9 +45,9 @@ def restrict_to_localhost(env: dict[str, str] | os._Environ) -> None:
     """
     env.pop("ROS_LOCALHOST_ONLY", None)
     profile = localhost_profile()
-    own = env.get(PROFILE_VARIABLE)
     fast_dds = env.get("RMW_IMPLEMENTATION", _FAST_DDS_RMW) == _FAST_DDS_RMW
-    if profile is None or not fast_dds or (own and Path(own) != profile):
+    users_profile = bool(env.get(PROFILE_VARIABLE)) and not _names_profile(env, profile)
+    if profile is None or not fast_dds or users_profile:
         env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
         return
     env[PROFILE_VARIABLE] = str(profile)
@@ -58,10 +58,14 @@ def is_localhost_only(env: dict[str, str] | os._Environ) -> bool:
     """Whether ``env`` restricts discovery to this host (either way above)."""
     if env.get("ROS_AUTOMATIC_DISCOVERY_RANGE") == "LOCALHOST":
         return True
-    profile = localhost_profile()
+    return (env.get("ROS_AUTOMATIC_DISCOVERY_RANGE") == "SYSTEM_DEFAULT"
+            and _names_profile(env, localhost_profile()))
+
+
+def _names_profile(env: dict[str, str] | os._Environ, profile: Path | None) -> bool:
+    """Whether ``env``'s Fast DDS profile variable names the project's ``profile``."""
     own = env.get(PROFILE_VARIABLE)
-    return (env.get("ROS_AUTOMATIC_DISCOVERY_RANGE") == "SYSTEM_DEFAULT" and profile is not None
-            and own is not None and Path(own) == profile)
+    return profile is not None and bool(own) and Path(own) == profile
 
 
 class DomainLease:
