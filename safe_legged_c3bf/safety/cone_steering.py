@@ -27,6 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from safe_legged_c3bf.safety.velocity_obstacles import first_contact_times
+
 __all__ = [
     "EDGE_STEPS", "MAX_TURN", "START_SPEED", "SWITCH_MARGIN", "ConeSteering", "Steer",
     "blocked_headings",
@@ -80,16 +82,8 @@ def blocked_headings(psi, speed, p, w, radius, horizon) -> np.ndarray:
 
     """
     d = np.stack([np.cos(psi), np.sin(psi)], -1)  # (k, 2)
-    v_rel = w[None, :, :] - speed * d[:, None, :]  # (k, n, 2)
-    vv = (v_rel * v_rel).sum(-1)
-    pv = (p[None] * v_rel).sum(-1)
-    t_star = np.clip(-pv / np.where(vv > 1e-12, vv, 1.0), 0.0, horizon)  # closest approach
-    closest = p[None] + v_rel * t_star[..., None]
-    hit = (closest * closest).sum(-1) < radius[None] ** 2
-    inside = (p * p).sum(-1) < radius**2
     # Already overlapping (the QP's inside handling answers): blocks only approaching headings.
-    hit = np.where(inside[None], pv < 0.0, hit)
-    return hit.any(axis=1)
+    return np.isfinite(first_contact_times(speed * d, p, w, radius, horizon))
 
 
 class ConeSteering:

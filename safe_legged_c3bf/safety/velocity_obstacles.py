@@ -1,0 +1,41 @@
+"""Velocity obstacles with a time horizon: when a robot velocity first meets an obstacle.
+
+The test behind the whole-body filter's reference shaping in front of the QP: the cone
+steering (``cone_steering``: which headings are blocked) and the escape from movers
+(``escape``: which velocities stay clear, and for how long the others do). Circles moving at
+constant velocity; odom frame, m, m/s, s.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["first_contact_times"]
+
+
+def first_contact_times(vel, p, w, radius, horizon: float) -> np.ndarray:
+    """``(k,)`` time [s] at which robot velocity ``vel[j]`` first brings a pair into contact.
+
+    Args:
+        vel: ``(k, 2)`` robot velocities [m/s] (odom).
+        p: ``(m, 2)`` obstacle centres minus the cover points' centres [m], one row per
+            (cover point, obstacle) pair.
+        w: ``(m, 2)`` the pairs' obstacle velocities [m/s].
+        radius: ``(m,)`` the pairs' contact distances [m].
+        horizon: Look-ahead [s]; no contact within it gives ``inf``.
+
+    A pair already in contact counts as a contact at 0 while it closes in, and none while it
+    separates (the QP's inside handling answers it).
+
+    """
+    v_rel = w[None, :, :] - vel[:, None, :]  # (k, m, 2)
+    vv = (v_rel * v_rel).sum(-1)
+    pv = (p[None] * v_rel).sum(-1)
+    gap = (p * p).sum(-1) - radius**2  # (m,)
+    disc = pv * pv - vv * gap[None]
+    approaching = (pv < 0.0) & (disc >= 0.0) & (vv > 1e-12)
+    root = np.sqrt(np.maximum(disc, 0.0))
+    t = np.where(approaching, (-pv - root) / np.where(vv > 1e-12, vv, 1.0), np.inf)
+    t = np.where(gap[None] <= 0.0, np.where(pv < 0.0, 0.0, np.inf), t)
+    t = np.where(t <= horizon, t, np.inf)
+    return t.min(axis=1) if t.shape[1] else np.full(len(vel), np.inf)
