@@ -12,7 +12,7 @@ import numpy as np
 
 from safe_legged_c3bf.safety.params import LATERAL_MODELS, FilterParams
 
-__all__ = ["input_bounds"]
+__all__ = ["input_bounds", "yaw_rate_only_decays"]
 
 
 def input_bounds(
@@ -53,3 +53,21 @@ def input_bounds(
         if lo[k] > hi[k]:  # conflicting limits: take the middle (limits are soft here)
             lo[k] = hi[k] = 0.5 * (lo[k] + hi[k])
     return np.array(lo), np.array(hi)
+
+
+def yaw_rate_only_decays(u_min: np.ndarray, u_max: np.ndarray, wz: float, dt: float,
+                         idx: tuple[int, ...]) -> None:
+    """Narrow the yaw input's bounds (in place): the yaw rate ``wz`` [rad/s] only decays to 0.
+
+    ``dt`` is the cycle [s], ``idx`` as in :func:`input_bounds`.
+
+    While the robot escapes a mover (``escape``) a turn would swing its retreat to the side
+    opposite the turn; the barrier rows, which see only their rates, would otherwise buy a
+    moment's clearance of the front point with a turn that undoes the escape's side-step.
+    """
+    if 3 not in idx:
+        return
+    k = idx.index(3)
+    stop = -wz / dt  # the yaw acceleration that brings wz to 0 in this cycle
+    lo, hi = max(u_min[k], min(stop, 0.0)), min(u_max[k], max(stop, 0.0))
+    u_min[k], u_max[k] = min(lo, hi), max(lo, hi)

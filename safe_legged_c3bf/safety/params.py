@@ -148,6 +148,14 @@ class FilterParams(TypedParams):
         "enter a cone at any distance), so a short horizon leaves far cones to the QP, which "
         "brakes", NON_NEGATIVE,
     )
+    escape_horizon: float = param(
+        6.0, "s", "escape shaping (whole-body model, unicycle_lateral and holonomic): when the "
+        "robot's cover, standing still, would meet a moving obstacle within this time and the "
+        "reference's own path is not clear either, the reference becomes the nearest "
+        "body-frame velocity within the speed limits whose path stays clear over it (none: "
+        "the latest contact, moving no body point towards a mover); heading held, tracked at "
+        "full acceleration (safety/escape.py); 0: off", NON_NEGATIVE,
+    )
     steer_lookahead: float = param(
         0.5, "s", "cone steering: the reference heading is yaw + reference yaw rate times "
         "this (the planner's 1 / k_heading)", NON_NEGATIVE,

@@ -47,7 +47,8 @@ from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
 from safe_legged_c3bf.interfaces.rotations import yaw_from_quaternion
 from safe_legged_c3bf.safety.cone_steering import ConeSteering, cover_half_width
 from safe_legged_c3bf.safety.deadlock_side import deadlock_side
-from safe_legged_c3bf.safety.input_bounds import input_bounds
+from safe_legged_c3bf.safety.escape import EscapeShaping
+from safe_legged_c3bf.safety.input_bounds import input_bounds, yaw_rate_only_decays
 from safe_legged_c3bf.safety.obstacle_input import (
     ObstacleInput,
     ObstacleSet,
@@ -161,6 +162,7 @@ class SafetyFilterCycle:
         self._steering = ConeSteering(
             p.steer_horizon, cover_half_width(self._body), p.steer_lookahead, p.steer_gain
         )
+        self._escape = EscapeShaping.for_body(self._body, p.escape_horizon)
         self.filter = SafetyFilter(
             model, gamma=p.gamma, weights=np.array(weights), u_min=-limits, u_max=limits,
             body=self._body, exit_speed=p.exit_speed,
@@ -190,6 +192,22 @@ class SafetyFilterCycle:
             return "" if out.free else " (no free heading: following)"
         ref_arr[0], ref_arr[3] = out.vx, out.yaw_rate
         return f" (steering {'left' if out.side > 0 else 'right'} out of a collision cone)"
+
+    def _escaped(self, ref_arr: np.ndarray, circles, pos, yaw: float) -> str:  # noqa: ANN001
+        """Escape shaping of the reference (whole body; ``escape``); what it did ("": none)."""
+        p = self.params
+        vertical = np.asarray(circles.plane) == 0
+        if self._escape is None or p.model not in LATERAL_MODELS or not vertical.any():
+            return ""  # the unicycle's way out is a turn, which a held heading would forbid
+        out = self._escape.shape(
+            pos, yaw, ref_arr[:2], circles.center[vertical], circles.velocity[vertical],
+            circles.radius[vertical], (p.max_speed, p.max_reverse_speed, p.max_lateral_speed),
+        )
+        if out is None:
+            return ""
+        ref_arr[0], ref_arr[1], ref_arr[3] = out.vx, out.vy, 0.0
+        ahead = "none" if math.isinf(out.contact_time) else f"{out.contact_time:.1f} s"
+        return f" (escaping a mover: {out.vx:+.2f}, {out.vy:+.2f} m/s; contact ahead {ahead})"
 
     def _inflation(self) -> tuple[float, float]:
         """Diameters [m] the obstacles grow by in x-y and x-z before the filter sees them.
@@ -348,28 +366,31 @@ class SafetyFilterCycle:
         return out
 
     def _model_problem(
-        self, ref_arr: np.ndarray, pos: np.ndarray, yaw: float
+        self, ref_arr: np.ndarray, pos: np.ndarray, yaw: float, gain: float | None = None
     ) -> tuple[np.ndarray, np.ndarray, tuple[int, int, int]]:
         """The QP's state, reference input and integrated velocity index per input.
 
-        The reference input is u_ref = k (v_ref - v), saturated at the input limits.
+        The reference input is u_ref = k (v_ref - v), saturated at the input limits; ``gain``
+        [1/s] replaces every k of the planar velocities (an escape: reach it at full
+        acceleration).
         """
         p, v = self.params, self._v
+        k_v, k_w = (p.k_v, p.k_w) if gain is None else (gain, gain)
         if p.model in TURNING_MODELS:  # inputs (a, alpha, a_z[, a_l]) -> vx, wz, vz[, vy]
             state = [pos[0], pos[1], yaw, v[0], v[3], pos[2], v[2]]
             if p.model == "unicycle_lateral":
                 state.append(v[1])
             state = np.array(state)
-            gains = ((p.k_v, 0, p.max_accel), (p.k_w, 3, p.max_yaw_accel))
+            gains = ((k_v, 0, p.max_accel), (k_w, 3, p.max_yaw_accel))
         else:  # inputs (a_x, a_y, a_z) -> vx, vy, vz
             c, s = math.cos(yaw), math.sin(yaw)
             state = np.array(
                 [pos[0], pos[1], c * v[0] - s * v[1], s * v[0] + c * v[1], pos[2], v[2]]
             )
-            gains = ((p.k_v, 0, p.max_accel), (p.k_v, 1, p.max_accel))
+            gains = ((k_v, 0, p.max_accel), (k_v, 1, p.max_accel))
         gains += ((p.k_z, 2, p.max_vertical_accel),)
         if p.model == "unicycle_lateral":
-            gains += ((p.k_v, 1, p.max_accel),)
+            gains += ((k_v, 1, p.max_accel),)
         u_ref = np.array([_sat(k * (ref_arr[j] - v[j]), limit) for k, j, limit in gains])
         return state, u_ref, tuple(j for _, j, _ in gains)
 
@@ -380,10 +401,13 @@ class SafetyFilterCycle:
         p, v = self.params, self._v
         ref_arr = ref.as_array()  # vx, vy, vz, wz
         steered = self._steer(t, ref_arr, circles, pos, yaw)
+        escape = self._escaped(ref_arr, circles, pos, yaw)
         deadlocked = (p.model in TURNING_MODELS and self._body is None  # body: cone steering
                       and self._deadlock_turn(t, ref_arr, circles, pos, yaw))
-        state, u_ref, idx = self._model_problem(ref_arr, pos, yaw)
+        state, u_ref, idx = self._model_problem(ref_arr, pos, yaw, 1.0 / dt if escape else None)
         u_min, u_max = self._bounds(v, measured, float(pos[2]), dt, idx, float(ref_arr[0]))
+        if escape:
+            yaw_rate_only_decays(u_min, u_max, float(v[3]), dt, idx)
         u_ref_clipped = np.minimum(np.maximum(u_ref, u_min), u_max)  # np.clip, less overhead
         try:
             result = self.filter.filter(
@@ -408,7 +432,7 @@ class SafetyFilterCycle:
         status = _FROM_FILTER[result.status]
         self._held_back = status is not CycleStatus.INACTIVE
         text = result.message or status.name.lower()
-        text += steered
+        text += steered + escape
         if deadlocked:
             text += f" (deadlock: turning {'left' if self._detour_side > 0 else 'right'})"
         return CycleOutput(
