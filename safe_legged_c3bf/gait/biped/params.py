@@ -54,8 +54,8 @@ class GaitParams:
     com_height: float = 0.60
     single_support: float = 0.40
     double_support: float = 0.12
-    start_delay: float = 0.60
-    start_double_support: float = 0.50
+    start_delay: float = 0.25
+    start_double_support: float = 0.30
     stop_double_support: float = 0.40
     touchdown_blend: float = 0.05
     liftoff_blend: float = 0.04
