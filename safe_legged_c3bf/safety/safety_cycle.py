@@ -173,13 +173,14 @@ class SafetyFilterCycle:
         self.params = params.validate()
         self._build()
 
-    def _steer(self, t: float, ref_arr: np.ndarray, circles, pos, yaw: float) -> str:  # noqa: ANN001
+    def _steer(self, t: float, ref_arr: np.ndarray, circles, vertical, pos,  # noqa: ANN001
+               yaw: float) -> str:
         """Cone steering of the reference (whole body, unicycle; ``cone_steering``); what it did.
 
         The point model keeps the paper's filter with its tie-break and deadlock turn.
+        ``vertical``: mask of the circles in x-y (computed once per cycle for both stages).
         """
         p = self.params
-        vertical = np.asarray(circles.plane) == 0
         if (self._body is None or p.model not in TURNING_MODELS or p.steer_horizon <= 0.0
                 or not vertical.any()):
             return ""
@@ -193,10 +194,10 @@ class SafetyFilterCycle:
         ref_arr[0], ref_arr[3] = out.vx, out.yaw_rate
         return f" (steering {'left' if out.side > 0 else 'right'} out of a collision cone)"
 
-    def _escaped(self, ref_arr: np.ndarray, circles, pos, yaw: float) -> str:  # noqa: ANN001
+    def _escaped(self, ref_arr: np.ndarray, circles, vertical, pos,  # noqa: ANN001
+                 yaw: float) -> str:
         """Escape shaping of the reference (whole body; ``escape``); what it did ("": none)."""
         p = self.params
-        vertical = np.asarray(circles.plane) == 0
         if self._escape is None or p.model not in LATERAL_MODELS or not vertical.any():
             return ""  # the unicycle's way out is a turn, which a held heading would forbid
         out = self._escape.shape(
@@ -400,8 +401,9 @@ class SafetyFilterCycle:
         """The C3BF QP on the reference, integrated into the command (fresh inputs)."""
         p, v = self.params, self._v
         ref_arr = ref.as_array()  # vx, vy, vz, wz
-        steered = self._steer(t, ref_arr, circles, pos, yaw)
-        escape = self._escaped(ref_arr, circles, pos, yaw)
+        vertical = np.asarray(circles.plane) == 0
+        steered = self._steer(t, ref_arr, circles, vertical, pos, yaw)
+        escape = self._escaped(ref_arr, circles, vertical, pos, yaw)
         deadlocked = (p.model in TURNING_MODELS and self._body is None  # body: cone steering
                       and self._deadlock_turn(t, ref_arr, circles, pos, yaw))
         state, u_ref, idx = self._model_problem(ref_arr, pos, yaw, 1.0 / dt if escape else None)
