@@ -29,12 +29,14 @@ MAX_CIRCLES = 32
 """Most circles one obstacle becomes (a longer one gets larger circles, still covering)."""
 
 
-def ellipse_cover(semi_axes, orientation) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def ellipse_cover(semi_axes, orientation, max_bulge: float = MAX_BULGE,
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Circles covering each ellipse: ``(index, offset, radius)``.
 
     Args:
         semi_axes: ``(n, 2)`` semi-axes ``(a, b)`` [m] (``a`` along ``orientation``).
         orientation: ``(n,)`` angle [rad] of semi-axis ``a`` from odom x, in the plane.
+        max_bulge: how far [m] a circle may stick out beyond the minor semi-axis (> 0).
 
     Returns:
         ``index`` ``(m,)`` the obstacle of each circle (non-decreasing), ``offset`` ``(m, 2)``
@@ -54,7 +56,7 @@ def ellipse_cover(semi_axes, orientation) -> tuple[np.ndarray, np.ndarray, np.nd
             radius.append(major)
             continue
         axis = th if a >= b else th + 0.5 * math.pi  # direction of the major axis
-        cell = math.sqrt((minor + MAX_BULGE) ** 2 - minor * minor)  # largest half cell
+        cell = math.sqrt((minor + max_bulge) ** 2 - minor * minor)  # largest half cell
         k = min(math.ceil(major / cell), MAX_CIRCLES)
         half = major / k
         r = math.hypot(half, minor)

@@ -19,9 +19,12 @@ import numpy as np
 
 from safe_legged_c3bf.c3bf import InvalidInputError, Obstacles, Plane
 from safe_legged_c3bf.c3bf.domain import MAX_MAGNITUDE
+from safe_legged_c3bf.safety.bar_walls import WALL_BULGE, BarWalls, bar_extents
 from safe_legged_c3bf.safety.elongated import ELONGATION, ellipse_cover
 
 _VERTICAL = frozenset({Plane.VERTICAL})
+_NONE = np.zeros(0, dtype=bool)
+_NONE.setflags(write=False)
 
 
 @dataclass(frozen=True)
@@ -193,7 +196,13 @@ class ObstacleSet:
         return len(self.ids)
 
 
-def to_c3bf_obstacles(
+def to_c3bf_obstacles(*args, **kwargs) -> tuple[Obstacles, list[str]]:
+    """:func:`to_c3bf_obstacles_walled` without the mask of walled circles."""
+    circles, ids, _ = to_c3bf_obstacles_walled(*args, **kwargs)
+    return circles, ids
+
+
+def to_c3bf_obstacles_walled(
     obstacles: ObstacleSet | Sequence[ObstacleInput],
     dt_predict: float,
     robot_y: float,
@@ -204,7 +213,9 @@ def to_c3bf_obstacles(
     robot_yaw: float = 0.0,
     tie_break: float = 0.0,
     bar_half_width: float | None = None,
-) -> tuple[Obstacles, list[str]]:
+    walls: BarWalls | None = None,
+    robot_x: float = 0.0,
+) -> tuple[Obstacles, list[str], np.ndarray]:
     """Inflated circles for the C3BF filter, predicted ``dt_predict`` s ahead.
 
     A horizontal bar is kept only while the robot's y lies within its extent along y, grown
@@ -215,6 +226,11 @@ def to_c3bf_obstacles(
     grows them by each body point's radius).
 
     Elongated obstacles become a row of circles (``elongated``), each with the obstacle's id.
+
+    With ``walls`` (the whole body), a bar the body cannot duck under becomes a VERTICAL
+    obstacle, its x-y footprint (``bar_walls``), unless the robot (at ``robot_x``,
+    ``robot_y``, ``robot_yaw``) is already under it; the third value returned is the mask of
+    the circles that came from such walls.
 
     Symmetry breaking: dead ahead of a unicycle the barrier's sensitivity to steering is
     exactly zero, so a head-on obstacle can only be braked for (and a faster mover cannot be
@@ -229,7 +245,7 @@ def to_c3bf_obstacles(
     if not isinstance(obstacles, ObstacleSet):
         obstacles = ObstacleSet.from_inputs(obstacles)
     if len(obstacles) == 0:
-        return Obstacles.empty(), []
+        return Obstacles.empty(), [], _NONE
     plane = obstacles.plane
     ids = list(obstacles.ids)
     if obstacles.all_vertical and obstacles.all_round:  # pillars, people: fewer operations
@@ -241,19 +257,27 @@ def to_c3bf_obstacles(
         radius = obstacles.vertical_radius(robot_width, safety_margin, tie_break)
         if not math.isfinite(center.sum()):  # NaN/Inf anywhere (or an absurd overflow)
             raise InvalidInputError("obstacle prediction overflowed")
-        return Obstacles.from_validated(center, velocity, radius, plane, _VERTICAL), ids
+        return (Obstacles.from_validated(center, velocity, radius, plane, _VERTICAL), ids,
+                np.zeros(len(ids), dtype=bool))
     c = obstacles.center + dt_predict * obstacles.velocity
     vel = obstacles.velocity
     vertical = plane == int(Plane.VERTICAL)
+    # Every obstacle as its covering circles (elongated ones: a row, ``elongated``).
+    index, offset, cover_r = obstacles.cover
+    walled = np.zeros(len(obstacles), dtype=bool)
+    if walls is not None and not vertical.all():
+        walled = _walled(obstacles, c, vertical, walls, safety_margin, robot_height,
+                         (robot_x, robot_y), robot_yaw)
+        if walled.any():
+            vertical = vertical | walled
+            index, offset, cover_r = _with_footprints(obstacles, walled, index, offset, cover_r)
     half_width = 0.5 * robot_width if bar_half_width is None else bar_half_width
     half_span = 0.5 * obstacles.extent + half_width + horizontal_y_margin
     keep = vertical | (np.abs(robot_y - c[:, 1]) <= half_span)
-    # Every kept obstacle as its covering circles (elongated ones: a row, ``elongated``).
-    index, offset, cover_r = obstacles.cover
     rows = keep[index]
     oi, off, cover_r = index[rows], offset[rows], cover_r[rows]
     if oi.size == 0:
-        return Obstacles.empty(), []
+        return Obstacles.empty(), [], _NONE
     v = vertical[oi]
     # Vertical: (x, y) moved tie_break to the robot's right; bars: (x, z) (see above).
     center = np.empty((oi.size, 2))
@@ -267,8 +291,46 @@ def to_c3bf_obstacles(
         cover_r + 0.5 * robot_width + safety_margin + tie_break,
         cover_r + 0.5 * robot_height + safety_margin,
     )
-    plane = plane[oi]
+    plane = np.where(v, int(Plane.VERTICAL), int(Plane.HORIZONTAL))
     ids = [ids[i] for i in oi.tolist()]
     if not (np.isfinite(center).all() and np.isfinite(radius).all()):
         raise InvalidInputError("obstacle prediction overflowed")
-    return Obstacles.from_validated(center, velocity, radius, plane), ids
+    return Obstacles.from_validated(center, velocity, radius, plane), ids, walled[oi]
+
+
+def _walled(obstacles: ObstacleSet, c: np.ndarray, vertical: np.ndarray, walls: BarWalls,
+            safety_margin: float, robot_height: float, robot_xy: tuple[float, float],
+            robot_yaw: float) -> np.ndarray:
+    """``(n,)`` mask of the bars to hand over as walls (``bar_walls``); ``c``: predicted centres."""
+    index, offset, cover_r = obstacles.cover
+    bar = ~vertical[index]
+    grown = cover_r[bar] + 0.5 * robot_height + safety_margin + walls.margin
+    walled = walls.impassable(c[index[bar], 2] + offset[bar, 1], grown, index[bar],
+                              len(obstacles))
+    if walled.any():
+        cand = np.flatnonzero(walled)
+        x_half, _ = bar_extents(obstacles.semi_axes[cand], obstacles.orientation[cand])
+        under = walls.under(np.asarray(robot_xy), robot_yaw, c[cand, :2], x_half,
+                            0.5 * obstacles.extent[cand])
+        walled[cand[under]] = False
+    return walled
+
+
+def _with_footprints(obstacles: ObstacleSet, walled: np.ndarray, index: np.ndarray,
+                     offset: np.ndarray, radius: np.ndarray):  # noqa: ANN202
+    """The cover with each walled bar's circles replaced by those of its x-y footprint.
+
+    The footprint is the rectangle ``x_half`` by ``extent / 2`` (odom axes) about the bar's
+    centre; ``ellipse_cover`` covers an ellipse's bounding box, hence the rectangle.
+    """
+    cand = np.flatnonzero(walled)
+    x_half, _ = bar_extents(obstacles.semi_axes[cand], obstacles.orientation[cand])
+    f_index, f_offset, f_radius = ellipse_cover(
+        np.column_stack([x_half, 0.5 * obstacles.extent[cand]]), np.zeros(cand.size),
+        WALL_BULGE,
+    )
+    rest = ~walled[index]
+    index = np.concatenate([index[rest], cand[f_index]])
+    order = np.argsort(index, kind="stable")
+    return (index[order], np.concatenate([offset[rest], f_offset])[order],
+            np.concatenate([radius[rest], f_radius])[order])

@@ -45,6 +45,7 @@ from safe_legged_c3bf.c3bf.body import robot_body
 from safe_legged_c3bf.interfaces.base_state import BaseState
 from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
 from safe_legged_c3bf.interfaces.rotations import yaw_from_quaternion
+from safe_legged_c3bf.safety.bar_walls import BarWalls
 from safe_legged_c3bf.safety.cone_steering import ConeSteering, cover_half_width
 from safe_legged_c3bf.safety.deadlock_side import deadlock_side
 from safe_legged_c3bf.safety.escape import EscapeShaping
@@ -52,7 +53,7 @@ from safe_legged_c3bf.safety.input_bounds import input_bounds, yaw_rate_only_dec
 from safe_legged_c3bf.safety.obstacle_input import (
     ObstacleInput,
     ObstacleSet,
-    to_c3bf_obstacles,
+    to_c3bf_obstacles_walled,
 )
 from safe_legged_c3bf.safety.params import LATERAL_MODELS, TURNING_MODELS, FilterParams
 from safe_legged_c3bf.safety.vanished import Vanished, VanishWatch
@@ -167,6 +168,7 @@ class SafetyFilterCycle:
             model, gamma=p.gamma, weights=np.array(weights), u_min=-limits, u_max=limits,
             body=self._body, exit_speed=p.exit_speed,
         )
+        self._walls = BarWalls.for_body(self._body, p.min_height, self.filter.margin)
 
     def set_params(self, params: FilterParams) -> None:
         """Replace the parameters (validated) and rebuild the QP."""
@@ -193,6 +195,16 @@ class SafetyFilterCycle:
             return "" if out.free else " (no free heading: following)"
         ref_arr[0], ref_arr[3] = out.vx, out.yaw_rate
         return f" (steering {'left' if out.side > 0 else 'right'} out of a collision cone)"
+
+    def _hold_before_walls(self, ref_arr: np.ndarray, circles, walled, ids, pos,  # noqa: ANN001
+                           yaw: float) -> str:
+        """Zero the reference's planar velocity while its path meets a walled bar; what it did."""
+        if not self._walls.blocks(pos, yaw, ref_arr[:2], circles.center[walled],
+                                  circles.radius[walled], self.params.steer_horizon):
+            return ""
+        ref_arr[:2] = 0.0
+        names = sorted({i for i, w in zip(ids, walled.tolist(), strict=True) if w})
+        return f" (holding before {', '.join(map(repr, names))}: too low to duck under)"
 
     def _escaped(self, ref_arr: np.ndarray, circles, vertical, pos,  # noqa: ANN001
                  yaw: float) -> str:
@@ -311,9 +323,10 @@ class SafetyFilterCycle:
             self._initialised = True
         pos = base.position
         try:  # obstacles predicted to now from their stamp
-            circles, ids = to_c3bf_obstacles(
+            circles, ids, walled = to_c3bf_obstacles_walled(
                 obstacles, t - obstacles_time, float(pos[1]), *self._inflation(),
                 p.safety_margin, p.horizontal_y_margin, yaw, p.tie_break, self._bar_half_width,
+                self._walls, float(pos[0]),
             )
         except InvalidInputError as err:
             return self._braked(dt, CycleStatus.INVALID_INPUT, f"rejected obstacles: {err}",
@@ -330,7 +343,7 @@ class SafetyFilterCycle:
             if not self._v.any():  # stopped: the vanished obstacle has been answered
                 self._vanish_brake = None
             return out
-        return self._filtered(t, dt, ref, ref_stale, pos, yaw, measured, circles, ids)
+        return self._filtered(t, dt, ref, ref_stale, pos, yaw, measured, circles, ids, walled)
 
     def _advance(self, t: float) -> float:
         """The integration step of the cycle at ``t`` (s).
@@ -396,13 +409,20 @@ class SafetyFilterCycle:
         return state, u_ref, tuple(j for _, j, _ in gains)
 
     def _filtered(  # noqa: ANN001 - circles: c3bf Obstacles
-        self, t, dt, ref, ref_stale, pos, yaw, measured, circles, ids
+        self, t, dt, ref, ref_stale, pos, yaw, measured, circles, ids, walled
     ) -> CycleOutput:
-        """The C3BF QP on the reference, integrated into the command (fresh inputs)."""
+        """The C3BF QP on the reference, integrated into the command (fresh inputs).
+
+        ``walled``: mask of the circles of bars handed over as walls (``bar_walls``): no
+        detour around them (a way round a bar across the path is the planner's to find).
+        """
         p, v = self.params, self._v
         ref_arr = ref.as_array()  # vx, vy, vz, wz
         vertical = np.asarray(circles.plane) == 0
-        steered = self._steer(t, ref_arr, circles, vertical, pos, yaw)
+        steered = self._steer(t, ref_arr, circles, vertical & ~walled if walled.any()
+                              else vertical, pos, yaw)
+        if walled.any():
+            steered += self._hold_before_walls(ref_arr, circles, walled, ids, pos, yaw)
         escape = self._escaped(ref_arr, circles, vertical, pos, yaw)
         deadlocked = (p.model in TURNING_MODELS and self._body is None  # body: cone steering
                       and self._deadlock_turn(t, ref_arr, circles, pos, yaw))

@@ -1,0 +1,165 @@
+"""Bars the whole body cannot pass under, turned into walls in x-y for the filter.
+
+A bar (a HORIZONTAL obstacle, an ellipse in x-z extruded along odom y) is kept from the
+body's x-z circles: the collision cone lets the robot duck and go on. A bar too low for the
+body at its lowest holdable height (``min_height``) cannot be passed at all, yet its cone in
+x-z only asks the robot to duck while approaching: with the planner asking for the standing
+height and the goal behind the bar, the robot ducks, rises, gains a little each time and
+creeps into the bar (issue #16). Such a bar is therefore handed to the filter as what it is
+to this robot, a wall: its x-y footprint (the rectangle ``[-x_half, x_half]`` by
+``[-extent / 2, extent / 2]`` about its centre, ``x_half`` the x half-extent of its ellipse),
+kept from the x-y circles like a wall segment (``elongated``, with circles that stick out up
+to ``WALL_BULGE`` towards the robot: few rows for the QP), ends included. The barrier never
+lets a body approach a wall head-on, so no ducking buys progress. A way round a bar across
+the path is the planner's to find, not the filter's: the cone steering does not detour
+around such a wall, and while the reference's straight path (at the present heading, over
+the horizon) would bring the cover into the wall, the safety cycle holds the reference's
+planar velocity at zero (:meth:`BarWalls.blocks`). Without that hold the QP slides the robot
+along the wall with its side-step (the velocity that keeps every row and is nearest a
+forward reference), on measured-velocity noise alone, and round the wall's end. So the
+robot stops where it is when the bar comes into view and holds that stop whatever the
+planner keeps asking; a reference that turns away or asks to back off is followed.
+
+Impassable here means, with the filter's own numbers: at base height ``min_height`` some
+x-z body point ``k`` (height ``min_height + l_z,k``, radius ``r_k``) lies within the bar's
+constraint circle in height, ``|z_j - (min_height + l_z,k)| < R_j + r_k`` for one of the
+bar's covering circles ``j`` (centre height ``z_j``, radius ``R_j`` grown by the safety
+margins): passing under it would put that point inside the circle. Ducking lower is not
+allowed, rising only lifts the trunk into a low bar (the leg band reaches the ground), so
+``min_height`` is the only height to check.
+
+A bar the robot is already under (an x-y body circle overlaps the footprint, no margins:
+a bar lowered onto the robot) stays a bar, so the x-z barrier keeps steering the robot out;
+as a wall the robot would be inside it. Units: m; frames: odom, base_link (REP-103/105).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from safe_legged_c3bf.c3bf.body import RobotBody
+from safe_legged_c3bf.c3bf.geometry import Plane
+from safe_legged_c3bf.safety.velocity_obstacles import first_contact_times
+
+__all__ = ["WALL_BULGE", "BarWalls", "bar_extents"]
+
+WALL_BULGE = 0.2
+"""How far [m] the circles covering a walled bar's footprint stick out beyond its half
+thickness: a 4 m bar 0.1 m thick is 9 circles, not 27 (3 rows per x-y body point each)."""
+
+
+def bar_extents(semi_axes: np.ndarray, orientation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Half-extents ``(x_half, z_half)`` [m] of rotated ellipses (their bounding boxes).
+
+    ``semi_axes`` ``(n, 2)`` = ``(a, b)``, ``a`` at ``orientation`` [rad] from odom x in x-z.
+    """
+    a, b = semi_axes[:, 0], semi_axes[:, 1]
+    c, s = np.cos(orientation), np.sin(orientation)
+    return np.hypot(a * c, b * s), np.hypot(a * s, b * c)
+
+
+@dataclass(frozen=True)
+class BarWalls:
+    """Which bars a body cannot pass under at ``min_height`` (see the module docstring).
+
+    Attributes:
+        min_height: lowest base height the filter lets the robot hold [m].
+        xz_height: ``(k,)`` heights ``l_z`` of the x-z body points above the base [m].
+        xz_radius: ``(k,)`` their radii [m].
+        xy_offset: ``(m, 2)`` x-y body points in base_link [m].
+        xy_radius: ``(m,)`` their radii [m].
+        margin: the QP's own margin on every constraint radius [m] (``SafetyFilter.margin``).
+
+    """
+
+    min_height: float
+    xz_height: np.ndarray
+    xz_radius: np.ndarray
+    xy_offset: np.ndarray
+    xy_radius: np.ndarray
+    margin: float = 0.0
+
+    @classmethod
+    def for_body(cls, body: RobotBody | None, min_height: float,
+                 margin: float = 0.0) -> BarWalls | None:
+        """The check for ``body`` (None for the single-point filter: the paper's, unchanged)."""
+        if body is None:
+            return None
+        xz = body.points_in(Plane.HORIZONTAL)
+        xy = body.points_in(Plane.VERTICAL)
+        if not xz or not xy:
+            return None
+        return cls(
+            float(min_height),
+            np.array([p.offset[2] for p in xz]), np.array([p.radius for p in xz]),
+            np.array([p.offset[:2] for p in xy]), np.array([p.radius for p in xy]),
+            float(margin),
+        )
+
+    def impassable(
+        self, bar_z: np.ndarray, bar_radius: np.ndarray, index: np.ndarray, n: int
+    ) -> np.ndarray:
+        """``(n,)`` mask: the obstacle has a covering circle the body cannot duck under.
+
+        Args:
+            bar_z: ``(m,)`` centre heights of the covering circles [m] (predicted, odom).
+            bar_radius: ``(m,)`` their radii grown by every margin the filter uses [m].
+            index: ``(m,)`` the obstacle of each circle.
+            n: number of obstacles.
+
+        """
+        points_z = self.min_height + self.xz_height
+        gap = np.abs(bar_z[:, None] - points_z[None, :])
+        hit = (gap < bar_radius[:, None] + self.xz_radius[None, :]).any(axis=1)
+        out = np.zeros(n, dtype=bool)
+        out[index[hit]] = True
+        return out
+
+    def under(self, pos: np.ndarray, yaw: float, centre_xy: np.ndarray, x_half: np.ndarray,
+              y_half: np.ndarray) -> np.ndarray:
+        """``(n,)`` mask: an x-y body circle overlaps the footprint rectangle (no margins).
+
+        Args:
+            pos: base position in odom [m] (x, y used).
+            yaw: base yaw [rad].
+            centre_xy: ``(n, 2)`` footprint centres [m].
+            x_half: ``(n,)`` half-sizes along odom x [m].
+            y_half: ``(n,)`` half-sizes along odom y [m].
+
+        """
+        c, s = math.cos(yaw), math.sin(yaw)
+        px = pos[0] + c * self.xy_offset[:, 0] - s * self.xy_offset[:, 1]
+        py = pos[1] + s * self.xy_offset[:, 0] + c * self.xy_offset[:, 1]
+        dx = np.maximum(np.abs(px[None, :] - centre_xy[:, 0:1]) - x_half[:, None], 0.0)
+        dy = np.maximum(np.abs(py[None, :] - centre_xy[:, 1:2]) - y_half[:, None], 0.0)
+        return (np.hypot(dx, dy) < self.xy_radius[None, :]).any(axis=1)
+
+    def blocks(self, pos: np.ndarray, yaw: float, velocity: np.ndarray, centres: np.ndarray,
+               radii: np.ndarray, horizon: float) -> bool:
+        """Whether the straight path at base_link ``velocity`` meets a wall within ``horizon``.
+
+        A cover circle already touching a wall blocks only a velocity that closes in.
+
+        Args:
+            pos: base position in odom [m].
+            yaw: base yaw [rad].
+            velocity: ``(vx, vy)`` in base_link [m/s], at the present heading.
+            centres: ``(n, 2)`` the walls' circles in odom [m].
+            radii: ``(n,)`` their radii [m] (grown by the safety margin).
+            horizon: look-ahead [s].
+
+        """
+        if len(radii) == 0 or not np.any(velocity):
+            return False
+        c, s = math.cos(yaw), math.sin(yaw)
+        rot = np.array([[c, -s], [s, c]])
+        points = np.asarray(pos, dtype=float)[:2] + self.xy_offset @ rot.T  # (k, 2)
+        vel = (rot @ np.asarray(velocity, dtype=float)).reshape(1, 2)
+        k, n = len(points), len(radii)
+        p = (centres[None, :, :] - points[:, None, :]).reshape(k * n, 2)
+        r = (radii[None, :] + self.xy_radius[:, None]).reshape(k * n)
+        t = first_contact_times(vel, p, np.zeros_like(p), r, horizon)
+        return bool(np.isfinite(t[0]))
