@@ -125,7 +125,7 @@ def test_extents_of_a_tilted_ellipse():
 def test_the_point_filter_has_no_walls():
     assert BarWalls.for_body(None, 0.18) is None
     cycle = SafetyFilterCycle(FilterParams(body_model="point"))
-    assert cycle._walls is None
+    assert cycle.shaping.walls is None
 
 
 RATE = 50.0

@@ -45,10 +45,7 @@ from safe_legged_c3bf.c3bf.body import robot_body
 from safe_legged_c3bf.interfaces.base_state import BaseState
 from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
 from safe_legged_c3bf.interfaces.rotations import yaw_from_quaternion
-from safe_legged_c3bf.safety.bar_walls import BarWalls
-from safe_legged_c3bf.safety.cone_steering import ConeSteering, cover_half_width
 from safe_legged_c3bf.safety.deadlock_side import deadlock_side
-from safe_legged_c3bf.safety.escape import EscapeShaping
 from safe_legged_c3bf.safety.input_bounds import input_bounds, yaw_rate_only_decays
 from safe_legged_c3bf.safety.obstacle_input import (
     ObstacleInput,
@@ -56,6 +53,7 @@ from safe_legged_c3bf.safety.obstacle_input import (
     to_c3bf_obstacles_walled,
 )
 from safe_legged_c3bf.safety.params import LATERAL_MODELS, TURNING_MODELS, FilterParams
+from safe_legged_c3bf.safety.reference_shaping import ReferenceShaping
 from safe_legged_c3bf.safety.vanished import Vanished, VanishWatch
 
 
@@ -160,67 +158,16 @@ class SafetyFilterCycle:
             limits = np.array([p.max_accel, p.max_accel, p.max_vertical_accel])
         self._limits = limits
         self._body = robot_body(p.robot_body) if p.body_model == "body" else None
-        self._steering = ConeSteering(
-            p.steer_horizon, cover_half_width(self._body), p.steer_lookahead, p.steer_gain
-        )
-        self._escape = EscapeShaping.for_body(self._body, p.escape_horizon)
         self.filter = SafetyFilter(
             model, gamma=p.gamma, weights=np.array(weights), u_min=-limits, u_max=limits,
             body=self._body, exit_speed=p.exit_speed,
         )
-        self._walls = BarWalls.for_body(self._body, p.min_height, self.filter.margin)
+        self.shaping = ReferenceShaping(p, self._body, self.filter.margin)
 
     def set_params(self, params: FilterParams) -> None:
         """Replace the parameters (validated) and rebuild the QP."""
         self.params = params.validate()
         self._build()
-
-    def _steer(self, t: float, ref_arr: np.ndarray, circles, vertical, pos,  # noqa: ANN001
-               yaw: float) -> str:
-        """Cone steering of the reference (whole body, unicycle; ``cone_steering``); what it did.
-
-        The point model keeps the paper's filter with its tie-break and deadlock turn.
-        ``vertical``: mask of the circles in x-y (computed once per cycle for both stages).
-        """
-        p = self.params
-        if (self._body is None or p.model not in TURNING_MODELS or p.steer_horizon <= 0.0
-                or not vertical.any()):
-            return ""
-        out = self._steering.steer(
-            t, pos, yaw, float(ref_arr[0]), float(ref_arr[3]), circles.center[vertical],
-            circles.velocity[vertical], circles.radius[vertical], p.max_yaw_rate,
-            float(self._v[0]),
-        )
-        if out.side == 0:
-            return "" if out.free else " (no free heading: following)"
-        ref_arr[0], ref_arr[3] = out.vx, out.yaw_rate
-        return f" (steering {'left' if out.side > 0 else 'right'} out of a collision cone)"
-
-    def _hold_before_walls(self, ref_arr: np.ndarray, circles, walled, ids, pos,  # noqa: ANN001
-                           yaw: float) -> str:
-        """Zero the reference's planar velocity while its path meets a walled bar; what it did."""
-        if not self._walls.blocks(pos, yaw, ref_arr[:2], circles.center[walled],
-                                  circles.radius[walled], self.params.steer_horizon):
-            return ""
-        ref_arr[:2] = 0.0
-        names = sorted({i for i, w in zip(ids, walled.tolist(), strict=True) if w})
-        return f" (holding before {', '.join(map(repr, names))}: too low to duck under)"
-
-    def _escaped(self, ref_arr: np.ndarray, circles, vertical, pos,  # noqa: ANN001
-                 yaw: float) -> str:
-        """Escape shaping of the reference (whole body; ``escape``); what it did ("": none)."""
-        p = self.params
-        if self._escape is None or p.model not in LATERAL_MODELS or not vertical.any():
-            return ""  # the unicycle's way out is a turn, which a held heading would forbid
-        out = self._escape.shape(
-            pos, yaw, ref_arr[:2], circles.center[vertical], circles.velocity[vertical],
-            circles.radius[vertical], (p.max_speed, p.max_reverse_speed, p.max_lateral_speed),
-        )
-        if out is None:
-            return ""
-        ref_arr[0], ref_arr[1], ref_arr[3] = out.vx, out.vy, 0.0
-        ahead = "none" if math.isinf(out.contact_time) else f"{out.contact_time:.1f} s"
-        return f" (escaping a mover: {out.vx:+.2f}, {out.vy:+.2f} m/s; contact ahead {ahead})"
 
     def _inflation(self) -> tuple[float, float]:
         """Diameters [m] the obstacles grow by in x-y and x-z before the filter sees them.
@@ -326,7 +273,7 @@ class SafetyFilterCycle:
             circles, ids, walled = to_c3bf_obstacles_walled(
                 obstacles, t - obstacles_time, float(pos[1]), *self._inflation(),
                 p.safety_margin, p.horizontal_y_margin, yaw, p.tie_break, self._bar_half_width,
-                self._walls, float(pos[0]),
+                self.shaping.walls, float(pos[0]),
             )
         except InvalidInputError as err:
             return self._braked(dt, CycleStatus.INVALID_INPUT, f"rejected obstacles: {err}",
@@ -413,17 +360,13 @@ class SafetyFilterCycle:
     ) -> CycleOutput:
         """The C3BF QP on the reference, integrated into the command (fresh inputs).
 
-        ``walled``: mask of the circles of bars handed over as walls (``bar_walls``): no
-        detour around them (a way round a bar across the path is the planner's to find).
+        The whole body's reference is shaped first (``reference_shaping``); ``walled``: mask
+        of the circles of bars handed over as walls (``bar_walls``).
         """
         p, v = self.params, self._v
         ref_arr = ref.as_array()  # vx, vy, vz, wz
-        vertical = np.asarray(circles.plane) == 0
-        steered = self._steer(t, ref_arr, circles, vertical & ~walled if walled.any()
-                              else vertical, pos, yaw)
-        if walled.any():
-            steered += self._hold_before_walls(ref_arr, circles, walled, ids, pos, yaw)
-        escape = self._escaped(ref_arr, circles, vertical, pos, yaw)
+        shaped, escape = self.shaping.shape(t, ref_arr, circles, ids, walled, pos, yaw,
+                                            float(v[0]))
         deadlocked = (p.model in TURNING_MODELS and self._body is None  # body: cone steering
                       and self._deadlock_turn(t, ref_arr, circles, pos, yaw))
         state, u_ref, idx = self._model_problem(ref_arr, pos, yaw, 1.0 / dt if escape else None)
@@ -454,7 +397,7 @@ class SafetyFilterCycle:
         status = _FROM_FILTER[result.status]
         self._held_back = status is not CycleStatus.INACTIVE
         text = result.message or status.name.lower()
-        text += steered + escape
+        text += shaped
         if deadlocked:
             text += f" (deadlock: turning {'left' if self._detour_side > 0 else 'right'})"
         return CycleOutput(
