@@ -17,7 +17,13 @@ from safe_legged_c3bf.c3bf.body import robot_body
 from safe_legged_c3bf.c3bf.geometry import Plane
 from safe_legged_c3bf.evaluation.results import read_csv
 from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
-from safe_legged_c3bf.safety.bar_walls import WALL_BULGE, BarWalls, bar_extents
+from safe_legged_c3bf.safety.bar_walls import (
+    WALL_BAND,
+    WALL_BULGE,
+    WALL_FORGET,
+    BarWalls,
+    bar_extents,
+)
 from safe_legged_c3bf.safety.obstacle_input import (
     ObstacleSet,
     to_c3bf_obstacles,
@@ -113,6 +119,35 @@ def test_mixed_lists_keep_their_order_and_the_old_function_its_answer():
     # Without walls (the single-point filter) every bar stays a bar.
     _, ids3 = to_c3bf_obstacles(obs, 0.0, 0.0, 0.0, 0.0, MARGIN, 0.1)
     assert ids3 == ["pillar", "low", "high"]
+
+
+def test_a_tracked_bar_near_the_rule_does_not_flicker():
+    """Noise of a few mm on a bar 2 mm passable by the rule: no switching (random A1 seed 46)."""
+    walls, rng = a1_walls(), np.random.default_rng(0)
+    states = [bool(walls.decide(["bar"], np.array([-0.002 + rng.normal(0, 0.008)]), 0.02 * k)[0])
+              for k in range(3000)]
+    assert sum(a != b for a, b in zip(states, states[1:], strict=False)) == 0
+    assert not states[0]
+    # The same noise 3 cm below the rule: a wall from the first message on, and it stays.
+    states = [bool(walls.decide(["low"], np.array([0.03 + rng.normal(0, 0.008)]), 0.02 * k)[0])
+              for k in range(3000)]
+    assert all(states)
+    # Untracked (no id) or no time: the rule at this instant.
+    assert walls.decide([""], np.array([0.001]), 1.0).tolist() == [True]
+    assert walls.decide(["bar"], np.array([0.001]), None).tolist() == [True]
+
+
+def test_a_bar_that_rises_stops_being_a_wall_and_a_forgotten_one_starts_afresh():
+    walls = a1_walls()
+    assert walls.decide(["b"], np.array([0.05]), 0.0)[0]
+    t, walled = 0.0, True
+    while walled:  # rises 5 cm/s: deficit falls through the band
+        t += 0.02
+        walled = bool(walls.decide(["b"], np.array([0.05 - 0.05 * t]), t)[0])
+    assert 1.0 + WALL_BAND / 0.05 < t < 1.0 + WALL_BAND / 0.05 + 1.5  # the average lags ~1 s
+    later = t + WALL_FORGET + 0.1
+    walls.decide(["other"], np.array([0.0]), later)  # "b" unseen for longer than WALL_FORGET
+    assert "b" not in walls._memory
 
 
 def test_extents_of_a_tilted_ellipse():

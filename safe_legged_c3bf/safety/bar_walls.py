@@ -24,7 +24,11 @@ Impassable here means, with the filter's own numbers: at base height ``min_heigh
 x-z body point ``k`` (height ``min_height + l_z,k``, radius ``r_k``) lies within the bar's
 constraint circle in height, ``|z_j - (min_height + l_z,k)| < R_j + r_k`` for one of the
 bar's covering circles ``j`` (centre height ``z_j``, radius ``R_j`` grown by the safety
-margins): passing under it would put that point inside the circle. Ducking lower is not
+margins): passing under it would put that point inside the circle. The shortfall is the
+bar's deficit (:meth:`BarWalls.deficit`); a tracked bar is walled on its deficit averaged
+over a second, with a 1 cm hysteresis (:meth:`BarWalls.decide`): a bar whose measured height
+is noisy near the rule otherwise switched between wall and bar every message and the robot
+wandered (random A1 seed 46, a bar passable by 2 mm). Ducking lower is not
 allowed, rising only lifts the trunk into a low bar (the leg band reaches the ground), so
 ``min_height`` is the only height to check.
 
@@ -36,7 +40,8 @@ as a wall the robot would be inside it. Units: m; frames: odom, base_link (REP-1
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -44,8 +49,14 @@ from safe_legged_c3bf.c3bf.body import RobotBody
 from safe_legged_c3bf.c3bf.geometry import Plane
 from safe_legged_c3bf.safety.velocity_obstacles import first_contact_times
 
-__all__ = ["WALL_BULGE", "BarWalls", "bar_extents"]
+__all__ = ["WALL_BAND", "WALL_BULGE", "WALL_FORGET", "WALL_TAU", "BarWalls", "bar_extents"]
 
+WALL_TAU = 1.0
+"""Averaging time [s] of a tracked bar's deficit (``BarWalls.decide``)."""
+WALL_BAND = 0.01
+"""Hysteresis [m] around the rule for tracked bars (``BarWalls.decide``)."""
+WALL_FORGET = 2.0
+"""A bar not seen for this long [s] is forgotten (``BarWalls.decide``)."""
 WALL_BULGE = 0.2
 """How far [m] the circles covering a walled bar's footprint stick out beyond its half
 thickness: a 4 m bar 0.1 m thick is 9 circles, not 27 (3 rows per x-y body point each)."""
@@ -61,7 +72,7 @@ def bar_extents(semi_axes: np.ndarray, orientation: np.ndarray) -> tuple[np.ndar
     return np.hypot(a * c, b * s), np.hypot(a * s, b * c)
 
 
-@dataclass(frozen=True)
+@dataclass
 class BarWalls:
     """Which bars a body cannot pass under at ``min_height`` (see the module docstring).
 
@@ -81,6 +92,7 @@ class BarWalls:
     xy_offset: np.ndarray
     xy_radius: np.ndarray
     margin: float = 0.0
+    _memory: dict = field(default_factory=dict, repr=False)  # id -> (avg deficit, walled, t)
 
     @classmethod
     def for_body(cls, body: RobotBody | None, min_height: float,
@@ -99,10 +111,13 @@ class BarWalls:
             float(margin),
         )
 
-    def impassable(
+    def deficit(
         self, bar_z: np.ndarray, bar_radius: np.ndarray, index: np.ndarray, n: int
     ) -> np.ndarray:
-        """``(n,)`` mask: the obstacle has a covering circle the body cannot duck under.
+        """``(n,)`` by how much [m] each obstacle is too low to duck under (> 0: impassable).
+
+        The largest ``R_j + r_k - |z_j - (min_height + l_z,k)|`` over the obstacle's circles
+        ``j`` and the x-z body points ``k``; ``-inf`` for an obstacle without circles here.
 
         Args:
             bar_z: ``(m,)`` centre heights of the covering circles [m] (predicted, odom).
@@ -113,9 +128,40 @@ class BarWalls:
         """
         points_z = self.min_height + self.xz_height
         gap = np.abs(bar_z[:, None] - points_z[None, :])
-        hit = (gap < bar_radius[:, None] + self.xz_radius[None, :]).any(axis=1)
-        out = np.zeros(n, dtype=bool)
-        out[index[hit]] = True
+        per_circle = (bar_radius[:, None] + self.xz_radius[None, :] - gap).max(axis=1)
+        out = np.full(n, -np.inf)
+        np.maximum.at(out, index, per_circle)
+        return out
+
+    def decide(self, ids: Sequence[str], deficit: np.ndarray, t: float | None) -> np.ndarray:
+        """``(n,)`` mask of the obstacles to wall, from their ``deficit`` at time ``t`` [s].
+
+        Tracked bars (a non-empty id) are decided on the deficit averaged over ``WALL_TAU``,
+        with a hysteresis of ``WALL_BAND``: a bar becomes a wall when the average exceeds
+        ``+WALL_BAND`` and stops being one below ``-WALL_BAND``. A bar within the band of the
+        rule stays what it was (first seen: a bar, kept from the x-z circles as before), so
+        perception noise on its height and size (a few mm) does not switch it back and forth
+        every message. Without an id, or with ``t`` None: the rule at this instant.
+        """
+        out = np.asarray(deficit) > 0.0
+        if t is None:
+            return out
+        memory = self._memory
+        for i, (key, d) in enumerate(zip(ids, np.asarray(deficit).tolist(), strict=True)):
+            if not key or not math.isfinite(d):
+                continue
+            seen = memory.get(key)
+            if seen is None:
+                avg, walled = d, d > WALL_BAND
+            else:
+                avg, walled, last = seen
+                w = min(max(t - last, 0.0) / WALL_TAU, 1.0)
+                avg += w * (d - avg)
+                walled = avg > -WALL_BAND if walled else avg > WALL_BAND
+            memory[key] = (avg, walled, t)
+            out[i] = walled
+        for key in [k for k, (_, _, last) in memory.items() if t - last > WALL_FORGET]:
+            del memory[key]
         return out
 
     def under(self, pos: np.ndarray, yaw: float, centre_xy: np.ndarray, x_half: np.ndarray,

@@ -215,6 +215,7 @@ def to_c3bf_obstacles_walled(
     bar_half_width: float | None = None,
     walls: BarWalls | None = None,
     robot_x: float = 0.0,
+    t: float | None = None,
 ) -> tuple[Obstacles, list[str], np.ndarray]:
     """Inflated circles for the C3BF filter, predicted ``dt_predict`` s ahead.
 
@@ -230,7 +231,8 @@ def to_c3bf_obstacles_walled(
     With ``walls`` (the whole body), a bar the body cannot duck under becomes a VERTICAL
     obstacle, its x-y footprint (``bar_walls``), unless the robot (at ``robot_x``,
     ``robot_y``, ``robot_yaw``) is already under it; the third value returned is the mask of
-    the circles that came from such walls.
+    the circles that came from such walls. ``t`` [s]: the time of the decision
+    (``BarWalls.decide``; None: the rule at this instant, no memory).
 
     Symmetry breaking: dead ahead of a unicycle the barrier's sensitivity to steering is
     exactly zero, so a head-on obstacle can only be braked for (and a faster mover cannot be
@@ -267,7 +269,7 @@ def to_c3bf_obstacles_walled(
     walled = np.zeros(len(obstacles), dtype=bool)
     if walls is not None and not vertical.all():
         walled = _walled(obstacles, c, vertical, walls, safety_margin, robot_height,
-                         (robot_x, robot_y), robot_yaw)
+                         (robot_x, robot_y), robot_yaw, t)
         if walled.any():
             vertical = vertical | walled
             index, offset, cover_r = _with_footprints(obstacles, walled, index, offset, cover_r)
@@ -300,13 +302,14 @@ def to_c3bf_obstacles_walled(
 
 def _walled(obstacles: ObstacleSet, c: np.ndarray, vertical: np.ndarray, walls: BarWalls,
             safety_margin: float, robot_height: float, robot_xy: tuple[float, float],
-            robot_yaw: float) -> np.ndarray:
+            robot_yaw: float, t: float | None) -> np.ndarray:
     """``(n,)`` mask of the bars to hand over as walls (``bar_walls``); ``c``: predicted centres."""
     index, offset, cover_r = obstacles.cover
     bar = ~vertical[index]
     grown = cover_r[bar] + 0.5 * robot_height + safety_margin + walls.margin
-    walled = walls.impassable(c[index[bar], 2] + offset[bar, 1], grown, index[bar],
-                              len(obstacles))
+    deficit = walls.deficit(c[index[bar], 2] + offset[bar, 1], grown, index[bar],
+                            len(obstacles))
+    walled = walls.decide(obstacles.ids, deficit, t)
     if walled.any():
         cand = np.flatnonzero(walled)
         x_half, _ = bar_extents(obstacles.semi_axes[cand], obstacles.orientation[cand])

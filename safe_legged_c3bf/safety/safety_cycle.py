@@ -273,7 +273,7 @@ class SafetyFilterCycle:
             circles, ids, walled = to_c3bf_obstacles_walled(
                 obstacles, t - obstacles_time, float(pos[1]), *self._inflation(),
                 p.safety_margin, p.horizontal_y_margin, yaw, p.tie_break, self._bar_half_width,
-                self.shaping.walls, float(pos[0]),
+                self.shaping.walls, float(pos[0]), t,
             )
         except InvalidInputError as err:
             return self._braked(dt, CycleStatus.INVALID_INPUT, f"rejected obstacles: {err}",
