@@ -88,6 +88,15 @@ def test_a_walled_bar_is_its_footprint_with_its_ends_and_its_id():
     assert mask_aside.all() and ids_aside
 
 
+def test_a_short_walled_bar_covers_its_corners():
+    """A footprint too short for a row of circles still covers its rectangle's corners."""
+    circles, ids, mask = convert(bar_set(0.25, extent=0.12))
+    assert mask.all() and len(ids) == 1
+    corners = np.array([[2.45, -0.06], [2.55, 0.06], [2.45, 0.06], [2.55, -0.06]])
+    d = np.linalg.norm(corners - circles.center[0], axis=1)
+    assert (d <= circles.radius[0] - MARGIN + 1e-9).all()
+
+
 def test_a_passable_bar_stays_a_bar_and_keeps_its_y_gate():
     circles, ids, mask = convert(bar_set(0.45))
     assert ids == ["bar"] and not mask.any()
@@ -228,20 +237,21 @@ def test_a_reference_that_backs_off_or_turns_away_is_followed():
 
 def test_blocks_is_the_cover_against_the_wall_circles():
     walls = a1_walls()
-    centres, radii = np.array([[1.0, 0.0]]), np.array([0.1])
+    centres, still, radii = np.array([[1.0, 0.0]]), np.zeros((1, 2)), np.array([0.1])
     pos = np.zeros(3)
-    assert walls.blocks(pos, 0.0, np.array([0.4, 0.0]), centres, radii, 20.0)
-    assert not walls.blocks(pos, 0.0, np.array([-0.2, 0.0]), centres, radii, 20.0)
-    assert not walls.blocks(pos, 0.0, np.array([0.0, 0.0]), centres, radii, 20.0)
-    assert not walls.blocks(pos, 0.0, np.array([0.4, 0.0]), centres, radii, 1.0)  # horizon
+    fwd = np.array([0.4, 0.0])
+    assert walls.blocks(pos, 0.0, fwd, centres, still, radii)
+    assert walls.blocks(pos, 0.0, fwd, centres + [[40.0, 0.0]], still, radii)  # any distance
+    assert not walls.blocks(pos, 0.0, np.array([-0.2, 0.0]), centres, still, radii)
+    assert not walls.blocks(pos, 0.0, np.array([0.0, 0.0]), centres, still, radii)
+    assert not walls.blocks(pos, 0.0, fwd, centres, still, radii, 1.0)  # a horizon, if given
+    assert not walls.blocks(pos, 0.0, fwd, centres, np.array([[0.5, 0.0]]), radii)  # receding
     # Sideways at yaw pi/2: base_link +x is odom +y; the circle at (1, 0) is beside the path.
-    assert not walls.blocks(pos, math.pi / 2, np.array([0.4, 0.0]), centres, radii, 20.0)
+    assert not walls.blocks(pos, math.pi / 2, fwd, centres, still, radii)
     # The A1's footprint circles (radius 0.2007 m on its axis) pass a circle of radius 0.1
     # at y = 0.32 with 2 cm to spare; one at y = 0.28 they touch.
-    assert not walls.blocks(pos, 0.0, np.array([0.4, 0.0]), np.array([[1.0, 0.32]]),
-                            np.array([0.1]), 20.0)
-    assert walls.blocks(pos, 0.0, np.array([0.4, 0.0]), np.array([[1.0, 0.28]]),
-                        np.array([0.1]), 20.0)
+    assert not walls.blocks(pos, 0.0, fwd, np.array([[1.0, 0.32]]), still, radii)
+    assert walls.blocks(pos, 0.0, fwd, np.array([[1.0, 0.28]]), still, radii)
 
 
 @pytest.mark.slow

@@ -12,8 +12,8 @@ kept from the x-y circles like a wall segment (``elongated``, with circles that 
 to ``WALL_BULGE`` towards the robot: few rows for the QP), ends included. The barrier never
 lets a body approach a wall head-on, so no ducking buys progress. A way round a bar across
 the path is the planner's to find, not the filter's: the cone steering does not detour
-around such a wall, and while the reference's straight path (at the present heading, over
-the horizon) would bring the cover into the wall, the safety cycle holds the reference's
+around such a wall, and while the reference's straight path (at the present heading) would
+bring the cover into the wall, the safety cycle holds the reference's
 planar velocity at zero (:meth:`BarWalls.blocks`). Without that hold the QP slides the robot
 along the wall with its side-step (the velocity that keeps every row and is nearest a
 forward reference), on measured-velocity noise alone, and round the wall's end. So the
@@ -184,16 +184,19 @@ class BarWalls:
         return (np.hypot(dx, dy) < self.xy_radius[None, :]).any(axis=1)
 
     def blocks(self, pos: np.ndarray, yaw: float, velocity: np.ndarray, centres: np.ndarray,
-               radii: np.ndarray, horizon: float) -> bool:
+               velocities: np.ndarray, radii: np.ndarray, horizon: float = math.inf) -> bool:
         """Whether the straight path at base_link ``velocity`` meets a wall within ``horizon``.
 
-        A cover circle already touching a wall blocks only a velocity that closes in.
+        A cover circle already touching a wall blocks only a velocity that closes in. The
+        default horizon is unbounded: the barrier forbids approaching a wall head-on from any
+        distance, and walls exist only within the perception's range.
 
         Args:
             pos: base position in odom [m].
             yaw: base yaw [rad].
             velocity: ``(vx, vy)`` in base_link [m/s], at the present heading.
             centres: ``(n, 2)`` the walls' circles in odom [m].
+            velocities: ``(n, 2)`` their velocities in odom [m/s] (a bar may move).
             radii: ``(n,)`` their radii [m] (grown by the safety margin).
             horizon: look-ahead [s].
 
@@ -206,6 +209,7 @@ class BarWalls:
         vel = (rot @ np.asarray(velocity, dtype=float)).reshape(1, 2)
         k, n = len(points), len(radii)
         p = (centres[None, :, :] - points[:, None, :]).reshape(k * n, 2)
+        w = np.broadcast_to(np.asarray(velocities, dtype=float), (k, n, 2)).reshape(k * n, 2)
         r = (radii[None, :] + self.xy_radius[:, None]).reshape(k * n)
-        t = first_contact_times(vel, p, np.zeros_like(p), r, horizon)
+        t = first_contact_times(vel, p, w, r, horizon)
         return bool(np.isfinite(t[0]))

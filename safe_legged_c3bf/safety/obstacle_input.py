@@ -324,14 +324,18 @@ def _with_footprints(obstacles: ObstacleSet, walled: np.ndarray, index: np.ndarr
     """The cover with each walled bar's circles replaced by those of its x-y footprint.
 
     The footprint is the rectangle ``x_half`` by ``extent / 2`` (odom axes) about the bar's
-    centre; ``ellipse_cover`` covers an ellipse's bounding box, hence the rectangle.
+    centre; ``ellipse_cover``'s rows cover an ellipse's bounding box, hence the rectangle.
     """
     cand = np.flatnonzero(walled)
     x_half, _ = bar_extents(obstacles.semi_axes[cand], obstacles.orientation[cand])
+    y_half = 0.5 * obstacles.extent[cand]
     f_index, f_offset, f_radius = ellipse_cover(
-        np.column_stack([x_half, 0.5 * obstacles.extent[cand]]), np.zeros(cand.size),
-        WALL_BULGE,
+        np.column_stack([x_half, y_half]), np.zeros(cand.size), WALL_BULGE,
     )
+    # A footprint not elongated enough for a row is one circle of its larger half-size,
+    # which covers the ellipse but not the rectangle's corners: grow it to the half-diagonal.
+    single = (np.bincount(f_index, minlength=cand.size) == 1)[f_index]
+    f_radius = np.where(single, np.hypot(x_half, y_half)[f_index], f_radius)
     rest = ~walled[index]
     index = np.concatenate([index[rest], cand[f_index]])
     order = np.argsort(index, kind="stable")

@@ -90,7 +90,7 @@ class ReferenceShaping:
     def _hold_before_walls(self, ref_arr, circles, walled, ids, pos, yaw) -> str:  # noqa: ANN001
         """Zero the planar velocity while the reference's path meets a walled bar."""
         if not self.walls.blocks(pos, yaw, ref_arr[:2], circles.center[walled],
-                                 circles.radius[walled], self.params.steer_horizon):
+                                 circles.velocity[walled], circles.radius[walled]):
             return ""
         ref_arr[:2] = 0.0
         names = sorted({i for i, w in zip(ids, walled.tolist(), strict=True) if w})
