@@ -104,6 +104,7 @@ class ConeSteering:
         n = int(math.ceil(MAX_TURN / heading_step))
         offsets = heading_step * np.arange(1, n + 1)
         self._left, self._right = offsets, -offsets
+        self._both, self._n = np.concatenate([offsets, -offsets]), n  # one scan, both sides
         self._side, self._side_time = 0, -math.inf
 
     def steer(self, t: float, pos, yaw: float, vx_ref: float, wz_ref: float,
@@ -119,10 +120,12 @@ class ConeSteering:
         w = np.asarray(velocities, dtype=float)
         r = np.asarray(radii, dtype=float) + self.robot_radius
         psi_ref = yaw + wz_ref * self.lookahead
-        if not blocked_headings(np.array([yaw]), vx_ref, p, w, r, self.horizon)[0]:
+        yaw_blocked, ref_blocked = blocked_headings(np.array([yaw, psi_ref]), vx_ref, p, w, r,
+                                                    self.horizon)
+        if not yaw_blocked:
             return self._within_free_interval(yaw, psi_ref, vx_ref, wz_ref, p, w, r,
                                               max_yaw_rate)
-        if not blocked_headings(np.array([psi_ref]), vx_ref, p, w, r, self.horizon)[0]:
+        if not ref_blocked:
             return Steer(vx_ref, wz_ref, 0, True)
         side = self._pick_side(t, psi_ref, vx_ref, p, w, r)
         if side is None:
@@ -146,8 +149,8 @@ class ConeSteering:
         turning into the cone and being braked there.
         """
         edges = []
-        for offsets in (self._left, self._right):
-            blocked = blocked_headings(yaw + offsets, vx_ref, p, w, r, self.horizon)
+        both = blocked_headings(yaw + self._both, vx_ref, p, w, r, self.horizon)
+        for offsets, blocked in ((self._left, both[:self._n]), (self._right, both[self._n:])):
             k = int(np.argmax(blocked)) if blocked.any() else len(offsets)
             k -= EDGE_STEPS  # keep off the cone's edge, where every row's h is 0
             edges.append(float(offsets[k - 1]) if k > 0 else 0.0)
@@ -164,8 +167,9 @@ class ConeSteering:
     def _pick_side(self, t, psi_ref, speed, p, w, r) -> tuple[int, float] | None:
         """(side, heading offset [rad]) of the nearest free heading; the kept side first."""
         best = {}
-        for side, offsets in ((1, self._left), (-1, self._right)):
-            free = ~blocked_headings(psi_ref + offsets, speed, p, w, r, self.horizon)
+        both = ~blocked_headings(psi_ref + self._both, speed, p, w, r, self.horizon)
+        for side, offsets, free in ((1, self._left, both[:self._n]),
+                                    (-1, self._right, both[self._n:])):
             if free.any():  # EDGE_STEPS beyond the first free heading: off the cone's edge
                 k = min(int(np.argmax(free)) + EDGE_STEPS, len(offsets) - 1)
                 best[side] = float(offsets[k])
