@@ -102,6 +102,28 @@ class ObstacleSet:
         return ellipse_cover(self.semi_axes, self.orientation)
 
     @cached_property
+    def bar_footprints(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(x_half, index, offset, radius)``: each bar's x-y footprint and its circles.
+
+        ``x_half`` ``(n,)`` [m]: the x half-extent of every obstacle's ellipse (used for the
+        bars: their footprint is ``x_half`` by ``extent / 2`` about the centre, odom axes);
+        the circles (``index``, ``offset``, ``radius`` as :attr:`cover`) cover the footprints
+        of the HORIZONTAL obstacles only, for when a bar is walled (``bar_walls``). Computed
+        once per obstacle list, not every cycle.
+        """
+        x_half, _ = bar_extents(self.semi_axes, self.orientation)
+        bars = np.flatnonzero(self.plane == int(Plane.HORIZONTAL))
+        y_half = 0.5 * self.extent[bars]
+        f_index, f_offset, f_radius = ellipse_cover(
+            np.column_stack([x_half[bars], y_half]), np.zeros(bars.size), WALL_BULGE,
+        )
+        # A footprint not elongated enough for a row is one circle of its larger half-size,
+        # which covers the ellipse but not the rectangle's corners: grow it to the half-diagonal.
+        single = (np.bincount(f_index, minlength=bars.size) == 1)[f_index]
+        f_radius = np.where(single, np.hypot(x_half[bars], y_half)[f_index], f_radius)
+        return x_half, bars[f_index], f_offset.reshape(-1, 2), f_radius
+
+    @cached_property
     def xy(self) -> tuple[np.ndarray, np.ndarray]:
         """``(n, 2)`` x-y centres and x-y velocities (read-only copies)."""
         c, v = self.center[:, :2].copy(), self.velocity[:, :2].copy()
@@ -312,7 +334,7 @@ def _walled(obstacles: ObstacleSet, c: np.ndarray, vertical: np.ndarray, walls: 
     walled = walls.decide(obstacles.ids, deficit, t)
     if walled.any():
         cand = np.flatnonzero(walled)
-        x_half, _ = bar_extents(obstacles.semi_axes[cand], obstacles.orientation[cand])
+        x_half = obstacles.bar_footprints[0][cand]
         under = walls.under(np.asarray(robot_xy), robot_yaw, c[cand, :2], x_half,
                             0.5 * obstacles.extent[cand])
         walled[cand[under]] = False
@@ -321,23 +343,14 @@ def _walled(obstacles: ObstacleSet, c: np.ndarray, vertical: np.ndarray, walls: 
 
 def _with_footprints(obstacles: ObstacleSet, walled: np.ndarray, index: np.ndarray,
                      offset: np.ndarray, radius: np.ndarray):  # noqa: ANN202
-    """The cover with each walled bar's circles replaced by those of its x-y footprint.
+    """The cover with each walled bar's circles replaced by its footprint's, by obstacle.
 
-    The footprint is the rectangle ``x_half`` by ``extent / 2`` (odom axes) about the bar's
-    centre; ``ellipse_cover``'s rows cover an ellipse's bounding box, hence the rectangle.
+    The footprint circles are ``ObstacleSet.bar_footprints`` (computed once per list).
     """
-    cand = np.flatnonzero(walled)
-    x_half, _ = bar_extents(obstacles.semi_axes[cand], obstacles.orientation[cand])
-    y_half = 0.5 * obstacles.extent[cand]
-    f_index, f_offset, f_radius = ellipse_cover(
-        np.column_stack([x_half, y_half]), np.zeros(cand.size), WALL_BULGE,
-    )
-    # A footprint not elongated enough for a row is one circle of its larger half-size,
-    # which covers the ellipse but not the rectangle's corners: grow it to the half-diagonal.
-    single = (np.bincount(f_index, minlength=cand.size) == 1)[f_index]
-    f_radius = np.where(single, np.hypot(x_half, y_half)[f_index], f_radius)
+    _, f_index, f_offset, f_radius = obstacles.bar_footprints
+    take = walled[f_index]
     rest = ~walled[index]
-    index = np.concatenate([index[rest], cand[f_index]])
+    index = np.concatenate([index[rest], f_index[take]])
     order = np.argsort(index, kind="stable")
-    return (index[order], np.concatenate([offset[rest], f_offset])[order],
-            np.concatenate([radius[rest], f_radius])[order])
+    return (index[order], np.concatenate([offset[rest], f_offset[take]])[order],
+            np.concatenate([radius[rest], f_radius[take]])[order])
