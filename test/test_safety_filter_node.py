@@ -246,11 +246,13 @@ def test_nan_messages_are_dropped_and_counted(driver):
     arr = ObstacleArray(obstacles=[bad_obs])
     arr.header.stamp = ros_common.to_time_msg(t)
     driver.obs_pub.publish(arr)
-    # /cmd_vel and /odom are checked on arrival; /obstacles when the next cycle decodes the
-    # latest one (so the next step sends no newer obstacle list).
+    # /cmd_vel and /odom are checked on arrival; /obstacles on arrival too unless a list was
+    # decoded since the last cycle, then when the next cycle decodes it (so the next step
+    # sends no newer obstacle list).
     assert spin_until(
         driver.executor,
-        lambda: sum(driver.filter.dropped.values()) >= 2 and driver.filter._obstacles_raw,
+        lambda: sum(driver.filter.dropped.values()) >= 2
+        and (driver.filter.dropped["obstacles"] or driver.filter._obstacles_raw),
         10.0,
     )
     state = driver.step(t + DT, robot, None, twist(0.3))
@@ -317,3 +319,22 @@ def test_invalid_start_up_parameters_raise(ros_executor):
             context=ros_executor.context_for_nodes,
             parameter_overrides=[Parameter("gamma", value=-2.0)],
         )
+
+
+def test_obstacles_are_decoded_on_arrival_not_on_the_odometry_path(driver):
+    """A list that arrives between cycles is decoded then; a second one waits for the cycle."""
+    robot = SimpleRobot()
+    driver.run(robot, [], VelocityCommand(0.3), 0.2)
+    t = 0.2 + DT
+    driver.step(t, robot, None, twist(0.3))  # a cycle after the last list (whatever its order)
+    t += DT
+    first = obstacle_msg(ScriptedObstacle("first", np.array([2.0, 0.0, 0.5])), t)
+    driver.publish(t, robot, [first], None, odom=False)
+    assert spin_until(driver.executor, lambda: driver.filter._obstacles is not None
+                      and list(driver.filter._obstacles.ids) == ["first"], 5.0)
+    second = obstacle_msg(ScriptedObstacle("second", np.array([2.0, 0.5, 0.5])), t)
+    driver.publish(t, robot, [second], None, odom=False)
+    assert spin_until(driver.executor, lambda: driver.filter._obstacles_raw is not None, 5.0)
+    assert list(driver.filter._obstacles.ids) == ["first"]  # one decode between cycles
+    state = driver.step(t, robot, None, twist(0.3))
+    assert list(state.obstacle_ids) == ["second"]  # the cycle decoded the newest

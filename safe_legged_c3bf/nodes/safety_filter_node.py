@@ -11,8 +11,10 @@ Untrusted inputs: every cycle runs at the node's own clock, never at a message's
 than their timeout, are rejected and counted (``/diagnostics``: ``rejected_<topic>_<why>``);
 so are NaN/Inf messages, /obstacles larger than ``max_message_bytes`` (before decoding) and
 both topics while they have more than one publisher (which one to believe cannot be told).
-An /obstacles message is decoded once per cycle at most (a flood costs one decode per
-cycle), keeping its ``max_obstacles`` obstacles nearest the robot.
+An /obstacles message is decoded on arrival, off the odometry-to-command path, unless one
+was decoded since the last cycle: then it waits, superseded by any newer one, and the cycle
+decodes the newest (a flood costs at most two decodes per cycle). The decoded list keeps its
+``max_obstacles`` obstacles nearest the robot.
 """
 
 from __future__ import annotations
@@ -82,7 +84,8 @@ class SafetyFilterNode(Node):
         self._obstacles_time: float | None = None
         self._last_cycle: float | None = None
         self._last_status: CycleStatus | None = None
-        self._obstacles_raw: bytes | None = None  # latest /obstacles, decoded at a cycle
+        self._obstacles_raw: bytes | None = None  # latest /obstacles not decoded yet
+        self._decoded_this_cycle = False  # an /obstacles list was decoded since the last cycle
         self.dropped = {"cmd_vel": 0, "odom": 0, "obstacles": 0}
         self.rejected: Counter[str] = Counter()  # "<topic>_<reason>" -> count
         self._gates = self._make_gates(params)
@@ -153,17 +156,20 @@ class SafetyFilterNode(Node):
         self._reference_time = self._now()
 
     def _on_obstacles(self, raw: bytes) -> None:
-        """Keep the latest message's bytes; a cycle decodes it (bounded work on floods)."""
+        """Decode the list now unless one was decoded this cycle (then keep its bytes)."""
         if len(raw) > self.cycle.params.max_message_bytes:
             self._reject("obstacles", "too_large")
             return
         self._obstacles_raw = raw
+        if not self._decoded_this_cycle:
+            self._decode_obstacles(self._now())
 
     def _decode_obstacles(self, now: float) -> None:
         """Decode, check and keep the latest /obstacles message, if a new one came."""
         raw, self._obstacles_raw = self._obstacles_raw, None
         if raw is None:
             return
+        self._decoded_this_cycle = True
         msg = deserialize_message(raw, ObstacleArray)
         stamp = ros_common.from_time_msg(msg.header.stamp)
         if not self._accept("obstacles", stamp, now):
@@ -203,7 +209,8 @@ class SafetyFilterNode(Node):
     # -- cycle ------------------------------------------------------------------------------
     def _run_cycle(self, t: float, received: float | None = None) -> None:
         """Run one cycle; ``received`` is the wall time the triggering odometry arrived."""
-        self._decode_obstacles(t)
+        self._decode_obstacles(t)  # the newest list, if one waited (see the module docstring)
+        self._decoded_this_cycle = False
         out = self.cycle.step(
             t, self._reference, self._reference_time, self._base, self._obstacles,
             self._obstacles_time,
