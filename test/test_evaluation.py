@@ -375,6 +375,21 @@ def test_aggregate_by_robot_and_filter():
     assert keys.index(("quadruped", "on")) < keys.index(("quadruped", "off"))
 
 
+def test_reachable_goal_rate_leaves_out_the_runs_with_a_blocker():
+    recs = synthetic_records()
+    a, b = (r for r in recs if r["run_id"] in ("a_True_obstacles", "b_True_obstacles"))
+    b.update(goal_reached=False, impassable="bar", impassable_by_margin="bar",
+             stopped_before_impassable=True)
+    a.update(impassable="", impassable_by_margin="")
+    on = {(r["robot"], r["filter"]): r for r in aggregate(recs)}[("quadruped", "on")]
+    assert on["goal_rate"] == 0.5 and on["reachable_goal_rate"] == 1.0
+    assert on["impassable_runs"] == 1 and on["impassable_by_margin_runs"] == 1
+    assert on["success_rate"] == 1.0
+    a.update(goal_reached=False)
+    on = {(r["robot"], r["filter"]): r for r in aggregate(recs)}[("quadruped", "on")]
+    assert on["reachable_goal_rate"] == 0.0 and on["reachable_goal_rate_hi"] > 0.0
+
+
 def test_aggregate_by_kind_and_empty_group():
     rows = aggregate(synthetic_records(), ("robot", "kind", "filter"))
     moving = [r for r in rows if r["kind"] == "moving"][0]

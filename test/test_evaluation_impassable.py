@@ -46,6 +46,24 @@ def test_envelope_from_filter_min_height_and_the_controller_floor():
 def test_bar_and_gap_rules():
     assert bar_impassable(0.20, A1) and not bar_impassable(0.25, A1)
     assert gap_impassable(0.25, A1) and not gap_impassable(0.35, A1)
+    # With the filter's clearance: 4 cm over the trunk top, 4 cm on each side of the body.
+    kept = BodyEnvelope("quadruped", 0.30, 0.057, 0.18, clearance=0.04)
+    assert bar_impassable(0.27, kept) and not bar_impassable(0.27, kept, clearance=False)
+    assert not bar_impassable(0.28, kept)
+    assert gap_impassable(0.37, kept) and not gap_impassable(0.37, kept, clearance=False)
+    assert not gap_impassable(0.39, kept)
+
+
+def test_a_bar_passable_only_without_the_filters_clearance_is_held_for():
+    """Underside 2 cm above the bare trunk top, 2 cm short of the clearance: by margin."""
+    filt = {"min_height": 0.18, "max_height": 0.285, "safety_margin": 0.03}
+    env = body_envelope(scenario([], filt=filt))
+    assert env.clearance == pytest.approx(0.04)  # safety_margin + the QP's DEFAULT_MARGIN
+    (blk,) = impassable_obstacles(scenario([bar(0.257)], filt=filt))
+    assert blk.by_margin and "bare trunk would pass" in blk.reason
+    (low,) = impassable_obstacles(scenario([bar(0.20)], filt=filt))
+    assert not low.by_margin
+    assert impassable_obstacles(scenario([bar(0.28)], filt=filt)) == []
 
 
 def test_bars_on_the_path_by_height():
@@ -53,7 +71,10 @@ def test_bars_on_the_path_by_height():
     (blk,) = impassable_obstacles(scenario([bar(0.20)], filt=filt))
     assert blk.kind == "bar" and blk.ids == ("bar",)
     assert blk.station == pytest.approx(2.45)
-    assert impassable_obstacles(scenario([bar(0.26)], filt=filt)) == []
+    # 0.26 m clears the bare trunk top (0.237 m), not the filter's default clearance (0.06 m).
+    (margin,) = impassable_obstacles(scenario([bar(0.26)], filt=filt))
+    assert margin.by_margin
+    assert impassable_obstacles(scenario([bar(0.30)], filt=filt)) == []
     # Not across the path: its end stops 0.1 m past the path, less than half the body.
     assert impassable_obstacles(scenario([bar(0.20, y=2.1, extent=4.0)], filt=filt)) == []
 

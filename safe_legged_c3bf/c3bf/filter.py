@@ -103,7 +103,10 @@ from .rows import (
 )
 from .solver_status import describe_osqp_status
 
-__all__ = ["DIRECTION_HORIZON", "SafetyFilter", "cbf_closed_form"]
+__all__ = ["DEFAULT_MARGIN", "DIRECTION_HORIZON", "SafetyFilter", "cbf_closed_form"]
+
+DEFAULT_MARGIN = 0.01
+"""The filter's own extra radius [m] on every obstacle (``SafetyFilter(margin=...)``)."""
 
 DIRECTION_HORIZON = 0.2
 """Time [s] ahead at which the whole-body filter takes the reference's relative-velocity
@@ -157,7 +160,7 @@ class SafetyFilter:
         u_min=None,
         u_max=None,
         v_eps: float = DEFAULT_V_EPS,
-        margin: float = 0.01,
+        margin: float = DEFAULT_MARGIN,
         method: Literal["auto", "qp"] = "auto",
         relax_penalty: float = 1e2,
         brake_gain: float = 2.0,

@@ -5,7 +5,8 @@ record_from_report`), from the scenario file and the run's ``timeseries.npz`` (t
 simulator's /odom: the exact base pose):
 
 * ``impassable``: the ids of the impassable obstacles on the straight path
-  (:mod:`.impassable`), '+'-joined ('' when none);
+  (:mod:`.impassable`), '+'-joined ('' when none); ``impassable_by_margin``: those of them
+  the bare body would pass (impassable only with the filter's clearance);
 * ``stopped_before_impassable``: the robot stopped before the first of them, untouched, not
   fallen, held the stop without creeping over the last ``CREEP_WINDOW`` s and the run went
   on to the scenario's end. Such a run is a success although the goal was not reached;
@@ -34,8 +35,8 @@ from safe_legged_c3bf.evaluation.unsurvivable import unsurvivable_threats
 #: The run must have lasted to within this of the scenario's duration (s) to count as held.
 END_TOLERANCE = 0.5
 #: Fields added by :func:`annotate`.
-FIELDS = ("impassable", "stopped_before_impassable", "creep", "unsurvivable",
-          "unsurvivable_detail", "leaders", "overtook")
+FIELDS = ("impassable", "impassable_by_margin", "stopped_before_impassable", "creep",
+          "unsurvivable", "unsurvivable_detail", "leaders", "overtook")
 
 
 def read_odom(run_dir: str | Path) -> np.ndarray | None:
@@ -65,6 +66,7 @@ def judge(rec: dict[str, Any], scenario: Any, odom: np.ndarray | None) -> dict[s
         return out
     blockers = impassable_obstacles(scenario)
     out["impassable"] = "+".join("+".join(b.ids) for b in blockers)
+    out["impassable_by_margin"] = "+".join("+".join(b.ids) for b in blockers if b.by_margin)
     ahead = leaders(scenario)
     out["leaders"] = "+".join(o.id for o in ahead)
     if odom is not None:
@@ -94,7 +96,7 @@ def annotate(rec: dict[str, Any], scenario: str, run_dir: str | Path) -> dict[st
 
     if rec.get("variant") == "free":
         rec.update(dict.fromkeys(FIELDS), stopped_before_impassable=False, impassable="",
-                   leaders="")
+                   impassable_by_margin="", leaders="")
         return rec
     try:
         rec.update(judge(rec, _load(scenario), read_odom(run_dir)))

@@ -1,18 +1,25 @@
 """Obstacles the robot's body cannot pass, decided from geometry, and the stop expected there.
 
 The robot walks the straight start-goal line (the planner never looks at obstacles); an
-obstacle on that line is **impassable** when the body cannot get through it:
+obstacle on that line is **impassable** when the body cannot get through it with the
+clearance the safety filter is configured to keep, ``clearance = safety_margin`` (the
+scenario's effective filter parameters) ``+ DEFAULT_MARGIN`` (the QP's own):
 
 * a **bar** (``plane: horizontal``, static) whose underside is below the top of the trunk at
-  the lowest base height the robot holds: ``lowest_base + trunk_top``, where ``lowest_base`` is
-  the larger of the filter's ``min_height`` (defaults, config files and the scenario's
-  overrides: :func:`safe_legged_c3bf.sim.scenario_clearance.filter_params`) and the gait
-  controller's floor (``RobotSpec.min_base_height``), and ``trunk_top`` the trunk's top above
-  the base origin (``RobotSpec.trunk_top``). It blocks when the straight path crosses its axis
-  at least half a body width inside its ends.
+  the lowest base height the robot holds plus that clearance: ``lowest_base + trunk_top +
+  clearance``, where ``lowest_base`` is the larger of the filter's ``min_height`` (defaults,
+  config files and the scenario's overrides:
+  :func:`safe_legged_c3bf.sim.scenario_clearance.filter_params`) and the gait controller's
+  floor (``RobotSpec.min_base_height``), and ``trunk_top`` the trunk's top above the base
+  origin (``RobotSpec.trunk_top``). It blocks when the straight path crosses its axis at
+  least half a body width inside its ends.
 * a **gap** between two static vertical obstacles, narrower than the body width
-  (``RobotSpec.width``), that the straight path goes through (it crosses the segment between
-  the two surfaces).
+  (``RobotSpec.width``) plus the clearance on each side, that the straight path goes
+  through (it crosses the segment between the two surfaces).
+
+A blocker the bare body would pass (with less than the clearance) is marked ``by_margin``:
+a filter that passed it would break its own margin, so the held stop is the expected outcome;
+campaigns report these apart from the blockers of geometry alone.
 
 What the robot must then do (:func:`held_stop`): stop before the first impassable obstacle,
 untouched, and hold the stop to the end of the run without creeping: its progress along the
@@ -47,6 +54,8 @@ class BodyEnvelope:
         width: body width across the path (legs included).
         trunk_top: trunk top above the base origin.
         lowest_base: lowest base height the robot holds under this scenario's filter.
+        clearance: what the filter keeps from every obstacle: its ``safety_margin`` plus the
+            QP's ``DEFAULT_MARGIN``.
 
     """
 
@@ -54,10 +63,11 @@ class BodyEnvelope:
     width: float
     trunk_top: float
     lowest_base: float
+    clearance: float = 0.0
 
     @property
     def lowest_top(self) -> float:
-        """Trunk top (m above ground) at the lowest base height: a lower bar blocks."""
+        """Trunk top (m above ground) at the lowest base height."""
         return self.lowest_base + self.trunk_top
 
 
@@ -70,6 +80,7 @@ class Blocker:
         kind: 'bar' or 'gap'.
         station: distance (m) along the path from the start to the obstacle's near side.
         reason: why it is impassable, with the numbers.
+        by_margin: the bare body would pass; the filter's clearance does not.
 
     """
 
@@ -77,26 +88,32 @@ class Blocker:
     kind: str
     station: float
     reason: str
+    by_margin: bool = False
 
 
 def body_envelope(scenario: Scenario) -> BodyEnvelope:
     """The body envelope of ``scenario``'s robot under its effective filter parameters."""
+    from safe_legged_c3bf.c3bf.filter import DEFAULT_MARGIN
     from safe_legged_c3bf.sim.robots import robot_spec
     from safe_legged_c3bf.sim.scenario_clearance import filter_params
 
     spec = robot_spec(scenario.robot.kind)
-    lowest = max(float(filter_params(scenario).min_height), spec.min_base_height)
-    return BodyEnvelope(spec.kind, spec.width, spec.trunk_top, lowest)
+    params = filter_params(scenario)
+    lowest = max(float(params.min_height), spec.min_base_height)
+    clearance = float(params.safety_margin) + DEFAULT_MARGIN
+    return BodyEnvelope(spec.kind, spec.width, spec.trunk_top, lowest, clearance)
 
 
-def bar_impassable(underside: float, envelope: BodyEnvelope) -> bool:
-    """True when a bar with its underside at ``underside`` (m) is below the lowest trunk top."""
-    return underside < envelope.lowest_top
+def bar_impassable(underside: float, envelope: BodyEnvelope, clearance: bool = True) -> bool:
+    """True when a bar with its underside at ``underside`` (m) is below the lowest trunk top
+    plus the envelope's clearance (``clearance=False``: the bare trunk top)."""
+    return underside < envelope.lowest_top + (envelope.clearance if clearance else 0.0)
 
 
-def gap_impassable(gap: float, envelope: BodyEnvelope) -> bool:
-    """True when a surface-to-surface ``gap`` (m) is narrower than the body."""
-    return gap < envelope.width
+def gap_impassable(gap: float, envelope: BodyEnvelope, clearance: bool = True) -> bool:
+    """True when a surface-to-surface ``gap`` (m) is narrower than the body plus the
+    envelope's clearance on each side (``clearance=False``: the bare body)."""
+    return gap < envelope.width + (2.0 * envelope.clearance if clearance else 0.0)
 
 
 def ellipse_outline(obs: ObstacleConfig, n: int = ELLIPSE_POINTS) -> np.ndarray:
@@ -141,9 +158,12 @@ def _bar_blocker(obs: ObstacleConfig, scenario: Scenario, env: BodyEnvelope) -> 
     if not bar_impassable(underside, env):
         return None
     station = s - half_x / abs(tangent[0])
+    by_margin = not bar_impassable(underside, env, clearance=False)
     return Blocker((obs.id,), "bar", station, (
         f"bar {obs.id!r}: underside {underside:.3f} m below the trunk top {env.lowest_top:.3f} m "
-        f"at the lowest base height {env.lowest_base:.3f} m (+ trunk top {env.trunk_top:.3f})"))
+        f"at the lowest base height {env.lowest_base:.3f} m (+ trunk top {env.trunk_top:.3f})"
+        f" + the filter's clearance {env.clearance:.3f} m"
+        + (" (the bare trunk would pass)" if by_margin else "")), by_margin)
 
 
 def _gap_blocker(a: ObstacleConfig, b: ObstacleConfig, scenario: Scenario,
@@ -162,9 +182,11 @@ def _gap_blocker(a: ObstacleConfig, b: ObstacleConfig, scenario: Scenario,
     if not 0.0 < s < length:
         return None
     near = min(float(np.min((ellipse_outline(o) - start) @ tangent)) for o in (a, b))
+    by_margin = not gap_impassable(gap, env, clearance=False)
     return Blocker((a.id, b.id), "gap", max(near, 0.0), (
         f"gap between {a.id!r} and {b.id!r}: {gap:.3f} m, narrower than the body "
-        f"({env.width:.3f} m)"))
+        f"({env.width:.3f} m) + the filter's clearance {env.clearance:.3f} m on each side"
+        + (" (the bare body would pass)" if by_margin else "")), by_margin)
 
 
 def impassable_obstacles(scenario: Scenario) -> list[Blocker]:

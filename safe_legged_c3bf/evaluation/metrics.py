@@ -11,6 +11,7 @@ computes, per group (metric definitions: doc/evaluation.md):
   rates below exclude (``valid`` = runs - run_failures);
 * ``collision_rate``, ``fall_rate``, ``goal_rate`` and ``success_rate`` (goal reached or
   stopped and held before an impassable obstacle, no collision, no fall) over the valid runs,
+  ``reachable_goal_rate``: the goal rate over the valid runs with no impassable obstacle,
   each with its 95 % Clopper-Pearson interval (``<rate>_lo``, ``<rate>_hi``;
   :mod:`.stats`), and ``collision_upper``: the one-sided 95 % upper bound of the collision
   rate the group's runs support;
@@ -18,6 +19,8 @@ computes, per group (metric definitions: doc/evaluation.md):
   ``unsurvivable_runs`` / ``unsurvivable_collided``: flagged runs and those of them with a
   collision (:mod:`.unsurvivable`); ``impassable_runs`` / ``stopped_impassable``: runs with
   an impassable obstacle on the path and those that stopped and held before it;
+  ``impassable_by_margin_runs``: of the former, those whose blocker the bare body would pass
+  (impassable only with the filter's clearance, :mod:`.impassable`);
   ``leader_runs`` / ``overtook_runs``: runs with a slower mover ahead going the robot's way
   and those that got past it (:mod:`.overtaking`);
 * ``infeasible_runs``: runs with some time in the filter status RELAXED; ``relaxed_mean``:
@@ -41,13 +44,13 @@ from safe_legged_c3bf.evaluation import stats
 from safe_legged_c3bf.evaluation.runner import RUN_FAILURES
 
 #: The rates of a group; each has a 95 % interval in ``<rate>_lo`` and ``<rate>_hi``.
-RATES = ("collision_rate", "fall_rate", "goal_rate", "success_rate")
+RATES = ("collision_rate", "fall_rate", "goal_rate", "reachable_goal_rate", "success_rate")
 #: Columns of the aggregate tables (after the group keys); results.md shows the interval of
 #: a rate in the rate's cell, summary.csv has the ``_lo`` / ``_hi`` columns too.
 SUMMARY_COLUMNS = (
     "runs", "run_failures", "valid", "collision_rate", "collisions", "unsurvivable_runs",
-    "unsurvivable_collided", "fall_rate", "goal_rate", "impassable_runs", "stopped_impassable",
-    "leader_runs", "overtook_runs", "success_rate", "infeasible_runs", "relaxed_mean",
+    "unsurvivable_collided", "fall_rate", "goal_rate", "reachable_goal_rate", "impassable_runs",
+    "impassable_by_margin_runs", "stopped_impassable", "leader_runs", "overtook_runs", "success_rate", "infeasible_runs", "relaxed_mean",
     "clearance_min", "clearance_p10", "clearance_median", "overhead_mean_s", "overhead_max_s",
     "overhead_mean_pct",
     "intervention_mean", "solve_median_ms", "solve_p99_max_ms", "solve_max_ms",
@@ -60,7 +63,7 @@ SUMMARY_CSV_COLUMNS = tuple(
 #: Columns of the side-by-side table of the filter's body models (same seeds).
 BODY_MODEL_COLUMNS = (
     "runs", "valid", "collisions", "unsurvivable_runs", "unsurvivable_collided", "goal_rate",
-    "impassable_runs", "stopped_impassable", "leader_runs", "overtook_runs", "success_rate",
+    "reachable_goal_rate", "impassable_runs", "impassable_by_margin_runs", "stopped_impassable", "leader_runs", "overtook_runs", "success_rate",
     "intervention_mean", "relaxed_mean", "clearance_min", "clearance_median",
 )
 
@@ -99,12 +102,16 @@ def _rates(valid: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "collision_rate": lambda r: bool(r.get("collision")),
         "fall_rate": lambda r: bool(r.get("fallen")),
         "goal_rate": lambda r: bool(r.get("goal_reached")),
+        "reachable_goal_rate": lambda r: bool(r.get("goal_reached")),
         "success_rate": is_success,
     }
-    n = len(valid)
     out: dict[str, Any] = {}
     for key, test in tests.items():
-        k = sum(1 for r in valid if test(r))
+        runs = valid
+        if key == "reachable_goal_rate":  # the goal rate of the runs with no blocker
+            runs = [r for r in valid if not r.get("impassable")]
+        n = len(runs)
+        k = sum(1 for r in runs if test(r))
         ci = stats.interval(k, n)
         out[key] = k / n if n else None
         out[f"{key}_lo"], out[f"{key}_hi"] = (round(ci[0], 6), round(ci[1], 6)) if ci else (
@@ -167,6 +174,7 @@ def summarize_group(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
     out["unsurvivable_runs"] = len(hopeless)
     out["unsurvivable_collided"] = sum(1 for r in hopeless if r.get("collision"))
     out["impassable_runs"] = sum(1 for r in valid if r.get("impassable"))
+    out["impassable_by_margin_runs"] = sum(1 for r in valid if r.get("impassable_by_margin"))
     out["stopped_impassable"] = sum(1 for r in valid if r.get("stopped_before_impassable"))
     out["leader_runs"] = sum(1 for r in valid if r.get("leaders"))
     out["overtook_runs"] = sum(1 for r in valid if r.get("overtook") is True)

@@ -17,7 +17,8 @@
   segment through the conflict point and stops (``mode: stop``) anywhere from 0 m past it:
   on the path, next to the robot, across the start;
 * a **bar** (probability ``bar_probability``) lies across the path at any height from
-  impassable (below the trunk at the lowest body height) to just above the standing trunk;
+  impassable (below the trunk at the lowest body height, or not clearing it by the filter's
+  margins) to just above the standing trunk;
   quadruped scenarios then carry the bar filter overrides, biped ones keep the biped's own
   height window (it cannot duck);
 * biped scenarios carry the biped's command range as ``filter:`` overrides.
