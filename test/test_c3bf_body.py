@@ -20,7 +20,14 @@ from safe_legged_c3bf.c3bf import (
     XZDoubleIntegratorModel,
     c3bf_value,
 )
-from safe_legged_c3bf.c3bf.body import BodyPoint, RobotBody, cover_box, robot_body
+from safe_legged_c3bf.c3bf.body import (
+    TOP_EXCESS,
+    BodyPoint,
+    RobotBody,
+    cells_for_excess,
+    cover_box,
+    robot_body,
+)
 from safe_legged_c3bf.c3bf.body_rows import body_rows
 from safe_legged_c3bf.c3bf.errors import InvalidInputError
 from safe_legged_c3bf.c3bf.lie import PLANE_AXES, row_barrier_terms
@@ -182,6 +189,15 @@ def test_the_cover_is_much_tighter_than_the_papers_circle():
     body = robot_body("a1")
     for p in body.points_in(Plane.VERTICAL):
         assert abs(p.offset[1]) + p.radius < 0.21
+
+
+@pytest.mark.parametrize(("name", "top"), [("a1", 0.058), ("biped", 0.231)])
+def test_the_top_row_bulges_at_most_top_excess_above_the_body(name, top):
+    """The highest x-z circle edge is within TOP_EXCESS of the trunk's (head's) top."""
+    xz = robot_body(name).points_in(Plane.HORIZONTAL)
+    highest = max(p.offset[2] + p.radius for p in xz)
+    assert top <= highest <= top + TOP_EXCESS + 1e-9
+    assert cells_for_excess(0.64, 0.116, 0.02) < cells_for_excess(0.64, 0.116)
 
 
 def test_cover_box_and_validation():

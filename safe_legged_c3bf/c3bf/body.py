@@ -19,6 +19,10 @@ Inflation, one place: the constraint radius of (point ``k``, obstacle ``i``) is
 sampling; the safety filter node adds its ``safety_margin`` to the obstacle sizes). Nothing
 else is inflated.
 
+The top row of x-z circles (the A1's trunk, the biped's torso and head) has as many circles
+as keep its bulge above the top edge within ``TOP_EXCESS`` (2 mm): that edge decides which
+bars the robot can duck under (``safety.bar_walls``).
+
 The two robots' covers are derived from their descriptions at the controllers' nominal
 postures (collision shapes, PyBullet AABBs in base_link, ``test/test_c3bf_body.py`` checks
 that every link's box lies inside the cover) plus the swing reach of the feet:
@@ -46,7 +50,8 @@ from .domain import checked, checked_scalar
 from .errors import InvalidInputError
 from .geometry import Plane
 
-__all__ = ["BODIES", "BodyPoint", "RobotBody", "cover_box", "robot_body"]
+__all__ = ["BODIES", "TOP_EXCESS", "BodyPoint", "RobotBody", "cells_for_excess", "cover_box",
+           "robot_body"]
 
 
 @dataclass(frozen=True)
@@ -142,16 +147,32 @@ class RobotBody:
         return tuple(p for p in self.points if p.plane is plane)
 
 
+TOP_EXCESS = 0.002
+"""How far [m] the x-z circles of the body's top row may bulge above its top edge: a bar
+the trunk or head passes with the filter's margins must not be refused for the cover's
+bulge (six circles over the A1's trunk bulged 2.1 cm: bars 2 cm above the rule were held)."""
+
+
+def cells_for_excess(length: float, height: float, excess: float = TOP_EXCESS) -> int:
+    """Fewest cells along ``length`` [m] whose circles bulge at most ``excess`` [m] beyond a
+    box ``height`` [m] high (one row: circle radius ``hypot(length / 2n, height / 2)``)."""
+    half_z = 0.5 * height
+    half_x = math.sqrt((half_z + excess) ** 2 - half_z**2)
+    return max(1, math.ceil(length / (2.0 * half_x)))
+
+
 def _a1() -> RobotBody:
     footprint = cover_box((-0.34, 0.30), (-0.17, 0.17), 3, Plane.VERTICAL, "footprint")
-    top = cover_box((-0.34, 0.30), (-0.058, 0.058), 6, Plane.HORIZONTAL, "trunk")
+    top = cover_box((-0.34, 0.30), (-0.058, 0.058), cells_for_excess(0.64, 0.116),
+                    Plane.HORIZONTAL, "trunk")
     legs = cover_box((-0.34, 0.30), (-0.34, -0.058), 3, Plane.HORIZONTAL, "legs", rows=2)
     return RobotBody("a1", footprint + top + legs, half_width=0.17)
 
 
 def _biped() -> RobotBody:
     footprint = cover_box((-0.19, 0.25), (-0.15, 0.15), 2, Plane.VERTICAL, "footprint")
-    head = cover_box((-0.19, 0.25), (0.111, 0.231), 4, Plane.HORIZONTAL, "torso and head")
+    head = cover_box((-0.19, 0.25), (0.111, 0.231), cells_for_excess(0.44, 0.12),
+                     Plane.HORIZONTAL, "torso and head")
     legs = cover_box((-0.19, 0.25), (-0.845, 0.111), 2, Plane.HORIZONTAL, "torso and legs",
                      rows=4)
     return RobotBody("biped", footprint + head + legs, half_width=0.15)
