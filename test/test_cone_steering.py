@@ -3,6 +3,7 @@
 import math
 
 import numpy as np
+import pytest
 
 from safe_legged_c3bf.safety.cone_steering import ConeSteering, blocked_headings
 
@@ -60,3 +61,34 @@ def test_a_free_heading_is_kept_off_the_cone_edge_and_not_turned_into_it():
     first_free = math.radians(int(np.argmax(edge)))
     target = 0.6 + out.yaw_rate / 1.5  # the heading the steering aims at
     assert target >= first_free + math.radians(5.0) - 1e-9
+
+
+def test_a_clamped_reference_walks_at_the_planners_cruise_speed():
+    """The planner slowed to 0.15 m/s for the heading error the steering holds: the robot
+    walks the free heading at the 0.4 m/s it asked for 10 s ago, never faster."""
+    pillar = ([[2.0, -0.3]], [[0.0, 0.0]], [0.3])
+    plain = ConeSteering(20.0, 0.2, 0.5, 1.5)
+    cruise = ConeSteering(20.0, 0.2, 0.5, 1.5, cruise_memory=30.0)
+    for s in (plain, cruise):
+        s.steer(0.0, (0, 0), 0.0, 0.4, 0.0, [[9.0, 9.0]], [[0, 0]], [0.3], 1.0)  # free: 0.4
+    slow = plain.steer(10.0, (0, 0), 0.6, 0.15, -2.0, *pillar, 1.0, speed=0.4)
+    fast = cruise.steer(10.0, (0, 0), 0.6, 0.15, -2.0, *pillar, 1.0, speed=0.4)
+    assert slow.side == fast.side == 1 and slow.yaw_rate == fast.yaw_rate
+    assert slow.vx == 0.15 and fast.vx == 0.4
+    # Unsteered, a slow reference stays slow; one that stops stops; the window forgets.
+    free = cruise.steer(11.0, (0, 0), 0.0, 0.15, 0.0, [[9.0, 9.0]], [[0, 0]], [0.3], 1.0)
+    assert free.vx == 0.15 and free.side == 0
+    stop = cruise.steer(12.0, (0, 0), 0.6, 0.0, -2.0, *pillar, 1.0, speed=0.4)
+    assert stop.vx == 0.0
+    late = cruise.steer(45.0, (0, 0), 0.6, 0.15, -2.0, *pillar, 1.0, speed=0.4)
+    assert late.vx == 0.15  # 0.4 was asked more than 30 s ago
+
+
+def test_turning_towards_a_free_heading_scales_the_cruise_speed_by_the_error():
+    pillar = ([[2.0, -0.05]], [[0.0, 0.0]], [0.3])
+    s = ConeSteering(20.0, 0.2, 0.5, 1.5, cruise_memory=30.0)
+    s.steer(0.0, (0, 0), 0.0, 0.4, 0.0, [[9.0, 9.0]], [[0, 0]], [0.3], 1.0)
+    out = s.steer(1.0, (0, 0), 0.0, 0.2, 0.0, *pillar, 1.0, speed=0.4)
+    assert out.side != 0
+    error = abs(out.yaw_rate) / 1.5  # heading_gain * error, below the yaw-rate limit
+    assert out.vx == pytest.approx(0.4 * math.cos(error), rel=1e-6)

@@ -18,11 +18,21 @@ moving at ``w_i``. Heading ``psi`` at speed ``v`` is blocked by obstacle ``i`` w
 ``p + v_rel t`` comes within ``r_i + robot_radius`` for some ``t`` in ``[0, horizon]``.
 Headings are searched on a grid of ``heading_step`` around the reference heading ``psi_ref =
 yaw + wz_ref * lookahead``; the side chosen last is preferred for ``side_memory`` s.
+
+Speed along a steered heading (``cruise_memory`` > 0): a goal-seeking planner slows down with
+its heading error (it would rather turn first), and while the steering holds the heading off
+the planner's, that error is the filter's doing, not the planner's wish: the robot crawled
+along a wall at half the planner's speed. Once the steering has turned or clamped a
+reference that asks to walk forward, its forward speed is at least the planner's cruise
+speed, the largest forward speed the reference asked for in the last ``cruise_memory`` s
+(scaled by the cosine of the heading error while turning towards the free heading). It never
+exceeds what the planner itself asked for in that window; the QP filters the result.
 """
 
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -91,16 +101,18 @@ class ConeSteering:
 
     def __init__(self, horizon: float, robot_radius: float, lookahead: float,
                  heading_gain: float, heading_step: float = math.radians(5.0),
-                 side_memory: float = 3.0) -> None:
+                 side_memory: float = 3.0, cruise_memory: float = 0.0) -> None:
         """Configure the steering (units in the arguments' descriptions).
 
         ``horizon`` [s], ``robot_radius`` [m], ``lookahead`` [s] (reference heading = yaw +
         wz_ref * lookahead), ``heading_gain`` [1/s] (yaw rate per rad of heading error),
-        ``heading_step`` [rad], ``side_memory`` [s].
+        ``heading_step`` [rad], ``side_memory`` [s], ``cruise_memory`` [s] (0: a steered
+        reference keeps its own forward speed; see the module docstring).
         """
         self.horizon, self.robot_radius = horizon, robot_radius
         self.lookahead, self.heading_gain = lookahead, heading_gain
-        self.side_memory = side_memory
+        self.side_memory, self.cruise_memory = side_memory, cruise_memory
+        self._asked: deque[tuple[float, float]] = deque()  # (t, vx_ref), vx decreasing
         n = int(math.ceil(MAX_TURN / heading_step))
         offsets = heading_step * np.arange(1, n + 1)
         self._left, self._right = offsets, -offsets
@@ -114,6 +126,7 @@ class ConeSteering:
         ``speed``: the robot's commanded forward speed [m/s]; below ``START_SPEED`` a robot
         whose heading is blocked turns in place before it walks.
         """
+        cruise = self._cruise(t, vx_ref)
         if vx_ref <= 1e-3 or len(radii) == 0 or self.horizon <= 0.0:
             return Steer(vx_ref, wz_ref, 0, True)
         p = np.asarray(centers, dtype=float) - np.asarray(pos, dtype=float)[:2]
@@ -123,8 +136,11 @@ class ConeSteering:
         yaw_blocked, ref_blocked = blocked_headings(np.array([yaw, psi_ref]), vx_ref, p, w, r,
                                                     self.horizon)
         if not yaw_blocked:
-            return self._within_free_interval(yaw, psi_ref, vx_ref, wz_ref, p, w, r,
-                                              max_yaw_rate)
+            out = self._within_free_interval(yaw, psi_ref, vx_ref, wz_ref, p, w, r,
+                                             max_yaw_rate)
+            if out.side == 0:
+                return out
+            return Steer(max(vx_ref, cruise), out.yaw_rate, out.side, True)
         if not ref_blocked:
             return Steer(vx_ref, wz_ref, 0, True)
         side = self._pick_side(t, psi_ref, vx_ref, p, w, r)
@@ -138,7 +154,22 @@ class ConeSteering:
         # walking, the QP turns the robot out of the cone itself.
         if speed < START_SPEED:
             return Steer(0.0, wz, offset_side, True)
-        return Steer(vx_ref * max(math.cos(error), 0.0), wz, offset_side, True)
+        return Steer(max(vx_ref, cruise) * max(math.cos(error), 0.0), wz, offset_side, True)
+
+    def _cruise(self, t: float, vx_ref: float) -> float:
+        """The largest forward speed [m/s] asked for in the last ``cruise_memory`` s (with
+        this cycle's ``vx_ref``); ``vx_ref`` itself when ``cruise_memory`` is 0."""
+        if self.cruise_memory <= 0.0:
+            return vx_ref
+        asked = self._asked
+        if asked and t < asked[-1][0]:
+            asked.clear()  # time went back (a new run, a reset clock)
+        while asked and asked[-1][1] <= vx_ref:
+            asked.pop()
+        asked.append((t, vx_ref))
+        while asked[0][0] < t - self.cruise_memory:
+            asked.popleft()
+        return asked[0][1]
 
     def _within_free_interval(self, yaw, psi_ref, vx_ref, wz_ref, p, w, r, max_yaw_rate):
         """From a free heading: the reference turn, kept inside the free headings around it.

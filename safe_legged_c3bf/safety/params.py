@@ -164,6 +164,12 @@ class FilterParams(TypedParams):
         1.5, "1/s", "cone steering: yaw rate per radian between the free heading and the yaw",
         POSITIVE,
     )
+    steer_cruise_memory: float = param(
+        30.0, "s", "cone steering: a steered reference that asks to walk forward gets at least "
+        "the largest forward speed the reference asked for in this window (the planner's "
+        "cruise speed; a goal-seeking planner slows with the heading error the steering "
+        "holds); 0: the reference's own speed", NON_NEGATIVE,
+    )
     deadlock_speed: float = param(
         0.05, "m/s", "the robot is deadlocked when the filter holds its commanded forward "
         "speed below this while the reference asks for more (unicycle model)", NON_NEGATIVE,

@@ -41,7 +41,7 @@ class ReferenceShaping:
         self.params, self.body = params, body
         self.steering = ConeSteering(
             params.steer_horizon, cover_half_width(body), params.steer_lookahead,
-            params.steer_gain,
+            params.steer_gain, cruise_memory=params.steer_cruise_memory,
         )
         self.escape = EscapeShaping.for_body(body, params.escape_horizon)
         self.walls = BarWalls.for_body(body, params.min_height, qp_margin)
