@@ -154,8 +154,10 @@ bulge (six circles over the A1's trunk bulged 2.1 cm: bars 2 cm above the rule w
 
 
 def cells_for_excess(length: float, height: float, excess: float = TOP_EXCESS) -> int:
-    """Fewest cells along ``length`` [m] whose circles bulge at most ``excess`` [m] beyond a
-    box ``height`` [m] high (one row: circle radius ``hypot(length / 2n, height / 2)``)."""
+    """Fewest cells along ``length`` [m] whose circles bulge at most ``excess`` [m].
+
+    The box is ``height`` [m] high, one row: circle radius ``hypot(length / 2n, height / 2)``.
+    """
     half_z = 0.5 * height
     half_x = math.sqrt((half_z + excess) ** 2 - half_z**2)
     return max(1, math.ceil(length / (2.0 * half_x)))

@@ -105,14 +105,18 @@ def body_envelope(scenario: Scenario) -> BodyEnvelope:
 
 
 def bar_impassable(underside: float, envelope: BodyEnvelope, clearance: bool = True) -> bool:
-    """True when a bar with its underside at ``underside`` (m) is below the lowest trunk top
-    plus the envelope's clearance (``clearance=False``: the bare trunk top)."""
+    """True when a bar's ``underside`` (m) is below the lowest trunk top plus the clearance.
+
+    ``clearance=False``: below the bare trunk top.
+    """
     return underside < envelope.lowest_top + (envelope.clearance if clearance else 0.0)
 
 
 def gap_impassable(gap: float, envelope: BodyEnvelope, clearance: bool = True) -> bool:
-    """True when a surface-to-surface ``gap`` (m) is narrower than the body plus the
-    envelope's clearance on each side (``clearance=False``: the bare body)."""
+    """True when a surface-to-surface ``gap`` (m) is narrower than the body and clearances.
+
+    The clearance counts on each side; ``clearance=False``: narrower than the bare body.
+    """
     return gap < envelope.width + (2.0 * envelope.clearance if clearance else 0.0)
 
 

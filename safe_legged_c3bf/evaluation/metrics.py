@@ -50,7 +50,8 @@ RATES = ("collision_rate", "fall_rate", "goal_rate", "reachable_goal_rate", "suc
 SUMMARY_COLUMNS = (
     "runs", "run_failures", "valid", "collision_rate", "collisions", "unsurvivable_runs",
     "unsurvivable_collided", "fall_rate", "goal_rate", "reachable_goal_rate", "impassable_runs",
-    "impassable_by_margin_runs", "stopped_impassable", "leader_runs", "overtook_runs", "success_rate", "infeasible_runs", "relaxed_mean",
+    "impassable_by_margin_runs", "stopped_impassable", "leader_runs", "overtook_runs",
+    "success_rate", "infeasible_runs", "relaxed_mean",
     "clearance_min", "clearance_p10", "clearance_median", "overhead_mean_s", "overhead_max_s",
     "overhead_mean_pct",
     "intervention_mean", "solve_median_ms", "solve_p99_max_ms", "solve_max_ms",
@@ -63,7 +64,8 @@ SUMMARY_CSV_COLUMNS = tuple(
 #: Columns of the side-by-side table of the filter's body models (same seeds).
 BODY_MODEL_COLUMNS = (
     "runs", "valid", "collisions", "unsurvivable_runs", "unsurvivable_collided", "goal_rate",
-    "reachable_goal_rate", "impassable_runs", "impassable_by_margin_runs", "stopped_impassable", "leader_runs", "overtook_runs", "success_rate",
+    "reachable_goal_rate", "impassable_runs", "impassable_by_margin_runs", "stopped_impassable",
+    "leader_runs", "overtook_runs", "success_rate",
     "intervention_mean", "relaxed_mean", "clearance_min", "clearance_median",
 )
 

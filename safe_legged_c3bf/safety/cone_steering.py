@@ -157,8 +157,10 @@ class ConeSteering:
         return Steer(max(vx_ref, cruise) * max(math.cos(error), 0.0), wz, offset_side, True)
 
     def _cruise(self, t: float, vx_ref: float) -> float:
-        """The largest forward speed [m/s] asked for in the last ``cruise_memory`` s (with
-        this cycle's ``vx_ref``); ``vx_ref`` itself when ``cruise_memory`` is 0."""
+        """The largest forward speed [m/s] asked for in the last ``cruise_memory`` s.
+
+        This cycle's ``vx_ref`` included; ``vx_ref`` itself when ``cruise_memory`` is 0.
+        """
         if self.cruise_memory <= 0.0:
             return vx_ref
         asked = self._asked
