@@ -163,18 +163,22 @@ def cells_for_excess(length: float, height: float, excess: float = TOP_EXCESS) -
     return max(1, math.ceil(length / (2.0 * half_x)))
 
 
+def _top_row(x: tuple[float, float], z: tuple[float, float], name: str) -> tuple[BodyPoint, ...]:
+    """The x-z top row over the box ``x`` by ``z`` [m], bulging at most ``TOP_EXCESS``."""
+    n = cells_for_excess(x[1] - x[0], z[1] - z[0])
+    return cover_box(x, z, n, Plane.HORIZONTAL, name)
+
+
 def _a1() -> RobotBody:
     footprint = cover_box((-0.34, 0.30), (-0.17, 0.17), 3, Plane.VERTICAL, "footprint")
-    top = cover_box((-0.34, 0.30), (-0.058, 0.058), cells_for_excess(0.64, 0.116),
-                    Plane.HORIZONTAL, "trunk")
+    top = _top_row((-0.34, 0.30), (-0.058, 0.058), "trunk")
     legs = cover_box((-0.34, 0.30), (-0.34, -0.058), 3, Plane.HORIZONTAL, "legs", rows=2)
     return RobotBody("a1", footprint + top + legs, half_width=0.17)
 
 
 def _biped() -> RobotBody:
     footprint = cover_box((-0.19, 0.25), (-0.15, 0.15), 2, Plane.VERTICAL, "footprint")
-    head = cover_box((-0.19, 0.25), (0.111, 0.231), cells_for_excess(0.44, 0.12),
-                     Plane.HORIZONTAL, "torso and head")
+    head = _top_row((-0.19, 0.25), (0.111, 0.231), "torso and head")
     legs = cover_box((-0.19, 0.25), (-0.845, 0.111), 2, Plane.HORIZONTAL, "torso and legs",
                      rows=4)
     return RobotBody("biped", footprint + head + legs, half_width=0.15)

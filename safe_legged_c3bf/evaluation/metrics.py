@@ -100,18 +100,19 @@ def _stat(values: np.ndarray, fn: str) -> float | None:
 
 def _rates(valid: Sequence[dict[str, Any]]) -> dict[str, Any]:
     """The :data:`RATES` of the valid runs with their 95 % intervals and the collision bound."""
-    tests = {
-        "collision_rate": lambda r: bool(r.get("collision")),
-        "fall_rate": lambda r: bool(r.get("fallen")),
-        "goal_rate": lambda r: bool(r.get("goal_reached")),
-        "reachable_goal_rate": lambda r: bool(r.get("goal_reached")),
-        "success_rate": is_success,
+    def goal(r: dict[str, Any]) -> bool:
+        return bool(r.get("goal_reached"))
+
+    reachable = [r for r in valid if not r.get("impassable")]  # no blocker on the path
+    tests = {  # rate -> (runs it is over, what counts)
+        "collision_rate": (valid, lambda r: bool(r.get("collision"))),
+        "fall_rate": (valid, lambda r: bool(r.get("fallen"))),
+        "goal_rate": (valid, goal),
+        "reachable_goal_rate": (reachable, goal),
+        "success_rate": (valid, is_success),
     }
     out: dict[str, Any] = {}
-    for key, test in tests.items():
-        runs = valid
-        if key == "reachable_goal_rate":  # the goal rate of the runs with no blocker
-            runs = [r for r in valid if not r.get("impassable")]
+    for key, (runs, test) in tests.items():
         n = len(runs)
         k = sum(1 for r in runs if test(r))
         ci = stats.interval(k, n)
