@@ -21,6 +21,7 @@ from safe_legged_c3bf.safety.bar_walls import (
     WALL_BAND,
     WALL_BULGE,
     WALL_FORGET,
+    WALL_SETTLE,
     BarWalls,
     bar_extents,
 )
@@ -137,13 +138,37 @@ def test_a_tracked_bar_near_the_rule_does_not_flicker():
               for k in range(3000)]
     assert sum(a != b for a, b in zip(states, states[1:], strict=False)) == 0
     assert not states[0]
-    # The same noise 3 cm below the rule: a wall from the first message on, and it stays.
+    # The same noise 3 cm below the rule: a wall within the settling time, and it stays.
     states = [bool(walls.decide(["low"], np.array([0.03 + rng.normal(0, 0.008)]), 0.02 * k)[0])
               for k in range(3000)]
-    assert all(states)
+    settle = round(WALL_SETTLE / 0.02)
+    assert all(states[settle:])
+    assert sum(a != b for a, b in zip(states, states[1:], strict=False)) <= 1
     # Untracked (no id) or no time: the rule at this instant.
     assert walls.decide([""], np.array([0.001]), 1.0).tolist() == [True]
     assert walls.decide(["bar"], np.array([0.001]), None).tolist() == [True]
+
+
+def test_one_noisy_first_sighting_does_not_wall_a_passable_bar_for_good():
+    """A track's first height is the raw detection's (2 cm noise): it is averaged first (b007)."""
+    walls = a1_walls()
+    # A bar 6 mm passable, first seen 2 sigma low (decided alone: a wall, beyond the band
+    # the hysteresis would keep), then the tracker's filtered estimate.
+    assert walls.decide(["bar"], np.array([0.034]), 0.0)[0]
+    rng = np.random.default_rng(1)
+    states = [bool(walls.decide(["bar"], np.array([-0.006 + rng.normal(0, 0.004)]),
+                                0.05 * k)[0]) for k in range(1, 400)]
+    settle = round(WALL_SETTLE / 0.05)
+    assert not any(states[settle:])  # a bar from the end of the settling on
+
+
+def test_a_clearly_low_bar_is_a_wall_while_it_settles():
+    walls = a1_walls()
+    states = [bool(walls.decide(["low"], np.array([0.06]), 0.05 * k)[0]) for k in range(40)]
+    assert all(states)
+    states = [bool(walls.decide(["low2"], np.array([0.02]), 0.05 * k)[0]) for k in range(40)]
+    settle = round(WALL_SETTLE / 0.05)
+    assert not any(states[:settle]) and all(states[settle:])
 
 
 def test_a_bar_that_rises_stops_being_a_wall_and_a_forgotten_one_starts_afresh():

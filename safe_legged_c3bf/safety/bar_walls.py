@@ -26,10 +26,11 @@ constraint circle in height, ``|z_j - (min_height + l_z,k)| < R_j + r_k`` for on
 bar's covering circles ``j`` (centre height ``z_j``, radius ``R_j`` grown by the safety
 margins): passing under it would put that point inside the circle. The shortfall is the
 bar's deficit (:meth:`BarWalls.deficit`); a tracked bar is walled on its deficit averaged
-over a second, with a 1 cm hysteresis (:meth:`BarWalls.decide`): a bar whose measured height
-is noisy near the rule otherwise switched between wall and bar every message and the robot
-wandered (random A1 seed 46, a bar passable by 2 mm). Ducking lower is not
-allowed, rising only lifts the trunk into a low bar (the leg band reaches the ground), so
+over a second, after a second of settling, with a 1 cm hysteresis (:meth:`BarWalls.decide`):
+a bar whose measured height is noisy near the rule otherwise switched between wall and bar
+every message and the robot wandered (random A1 seed 46, a bar passable by 2 mm), and one
+noisy first sighting walled a passable bar for good (random biped seed 7). Ducking lower is
+not allowed, rising only lifts the trunk into a low bar (the leg band reaches the ground), so
 ``min_height`` is the only height to check.
 
 A bar the robot is already under (an x-y body circle overlaps the footprint, no margins:
@@ -49,12 +50,20 @@ from safe_legged_c3bf.c3bf.body import RobotBody
 from safe_legged_c3bf.c3bf.geometry import Plane
 from safe_legged_c3bf.safety.velocity_obstacles import first_contact_times
 
-__all__ = ["WALL_BAND", "WALL_BULGE", "WALL_FORGET", "WALL_TAU", "BarWalls", "bar_extents"]
+__all__ = [
+    "WALL_BAND", "WALL_BULGE", "WALL_FORGET", "WALL_SETTLE", "WALL_SURE", "WALL_TAU", "BarWalls",
+    "bar_extents",
+]
 
 WALL_TAU = 1.0
 """Averaging time [s] of a tracked bar's deficit (``BarWalls.decide``)."""
 WALL_BAND = 0.01
 """Hysteresis [m] around the rule for tracked bars (``BarWalls.decide``)."""
+WALL_SETTLE = 1.0
+"""A newly seen bar's deficit is averaged (plain mean) this long [s] before the hysteresis
+decides (``BarWalls.decide``): a track's first estimates carry the detections' full noise."""
+WALL_SURE = 0.03
+"""Deficit [m] (mean so far) above which a bar is a wall while it settles."""
 WALL_FORGET = 2.0
 """A bar not seen for this long [s] is forgotten (``BarWalls.decide``)."""
 WALL_BULGE = 0.2
@@ -92,7 +101,7 @@ class BarWalls:
     xy_offset: np.ndarray
     xy_radius: np.ndarray
     margin: float = 0.0
-    _memory: dict = field(default_factory=dict, repr=False)  # id -> (avg deficit, walled, t)
+    _memory: dict = field(default_factory=dict, repr=False)  # id -> _BarMemory
 
     @classmethod
     def for_body(cls, body: RobotBody | None, min_height: float,
@@ -136,12 +145,17 @@ class BarWalls:
     def decide(self, ids: Sequence[str], deficit: np.ndarray, t: float | None) -> np.ndarray:
         """``(n,)`` mask of the obstacles to wall, from their ``deficit`` at time ``t`` [s].
 
-        Tracked bars (a non-empty id) are decided on the deficit averaged over ``WALL_TAU``,
-        with a hysteresis of ``WALL_BAND``: a bar becomes a wall when the average exceeds
-        ``+WALL_BAND`` and stops being one below ``-WALL_BAND``. A bar within the band of the
-        rule stays what it was (first seen: a bar, kept from the x-z circles as before), so
-        perception noise on its height and size (a few mm) does not switch it back and forth
-        every message. Without an id, or with ``t`` None: the rule at this instant.
+        Tracked bars (a non-empty id) are decided on an averaged deficit. For its first
+        ``WALL_SETTLE`` the average is the plain mean of the deficits seen so far, and the bar
+        is a wall once that mean exceeds ``WALL_SURE`` (clearly too low); when it has settled,
+        a wall if the mean exceeds ``+WALL_BAND``. Then the average follows the deficit over
+        ``WALL_TAU`` with a hysteresis of ``WALL_BAND``: a bar becomes a wall when the average
+        exceeds ``+WALL_BAND`` and stops being one below ``-WALL_BAND``; within the band it
+        stays what it was. So perception noise on its height
+        and size does not switch it back and forth every message, and one noisy first sighting
+        of a bar passable by a few mm does not make a wall for the rest of the run (random
+        biped seed 7). A bar not walled is still kept from the x-z circles. Without an id, or
+        with ``t`` None: the rule at this instant.
         """
         out = np.asarray(deficit) > 0.0
         if t is None:
@@ -152,15 +166,11 @@ class BarWalls:
                 continue
             seen = memory.get(key)
             if seen is None:
-                avg, walled = d, d > WALL_BAND
+                seen = memory[key] = _BarMemory(d, d > WALL_SURE, t, t)
             else:
-                avg, walled, last = seen
-                w = min(max(t - last, 0.0) / WALL_TAU, 1.0)
-                avg += w * (d - avg)
-                walled = avg > -WALL_BAND if walled else avg > WALL_BAND
-            memory[key] = (avg, walled, t)
-            out[i] = walled
-        for key in [k for k, (_, _, last) in memory.items() if t - last > WALL_FORGET]:
+                seen.update(d, t)
+            out[i] = seen.walled
+        for key in [k for k, entry in memory.items() if t - entry.last > WALL_FORGET]:
             del memory[key]
         return out
 
@@ -213,3 +223,33 @@ class BarWalls:
         r = (radii[None, :] + self.xy_radius[:, None]).reshape(k * n)
         t = first_contact_times(vel, p, w, r, horizon)
         return bool(np.isfinite(t[0]))
+
+
+
+@dataclass(slots=True)
+class _BarMemory:
+    """What ``BarWalls.decide`` remembers of one tracked bar (times in s, deficits in m)."""
+
+    average: float
+    walled: bool
+    first: float
+    last: float
+    count: int = 1
+
+    def update(self, d: float, t: float) -> None:
+        """Take one more deficit ``d`` at time ``t``."""
+        self.count += 1
+        settling = self.last - self.first < WALL_SETTLE
+        if t - self.first < WALL_SETTLE:  # plain mean; a wall once clearly too low
+            self.average += (d - self.average) / self.count
+            self.walled = self.walled or self.average > WALL_SURE
+        else:
+            w = min(max(t - self.last, 0.0) / WALL_TAU, 1.0)
+            self.average += w * (d - self.average)
+            if settling:  # the first decision from the settled mean
+                self.walled = self.average > WALL_BAND
+            elif self.walled:
+                self.walled = self.average > -WALL_BAND
+            else:
+                self.walled = self.average > WALL_BAND
+        self.last = t
