@@ -70,7 +70,8 @@ setup(
     install_requires=PYTHON_DEPS + ([] if os.environ.get("ROS_DISTRO") else ROS_WHEELS),
     extras_require={
         # The test extra includes Ray: the two-node campaign test runs in CI, never skipped.
-        "test": ["pytest>=8", "hypothesis>=6.100", "ruff>=0.6", "pytest-timeout", "ray>=2.9"],
+        "test": ["pytest>=8", "hypothesis>=6.100", "ruff>=0.6", "pytest-timeout", "pytest-xdist>=3",
+                 "ray>=2.9"],
         # Peers of benchmarks/peer_comparison.py (pulls JAX).
         "bench": ["cbfpy==0.1.0", "elastiqp[jax]>=0.2"],
         # evaluate --ray: campaigns as Ray tasks. Ray core is enough to start a local Ray,
