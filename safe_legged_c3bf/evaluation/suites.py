@@ -49,6 +49,11 @@ NAMED_SCENARIOS = PAPER_SCENARIOS | {
     "quadruped_overtake_cart": "overtake",
     "biped_overtake_walker": "overtake",
     "quadruped_corridor_walker": "overtake",
+    # Issue #17: leaving a standstill in front of static obstacles.
+    "quadruped_symmetric_pillar": "deadlock",
+    "biped_symmetric_pillar": "deadlock",
+    "quadruped_corner": "deadlock",
+    "biped_corner": "deadlock",
 }
 #: Named scenarios whose straight path clears every obstacle (the unfiltered robot passes
 #: untouched): they test that the filter does not block what the body fits past.
