@@ -37,6 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from safe_legged_c3bf.safety.stall_detour import StallDetour
 from safe_legged_c3bf.safety.velocity_obstacles import first_contact_times
 
 __all__ = [
@@ -118,6 +119,7 @@ class ConeSteering:
         self._left, self._right = offsets, -offsets
         self._both, self._n = np.concatenate([offsets, -offsets]), n  # one scan, both sides
         self._side, self._side_time = 0, -math.inf
+        self.detour = StallDetour(heading_step, heading_gain, START_SPEED, EDGE_STEPS)
 
     def steer(self, t: float, pos, yaw: float, vx_ref: float, wz_ref: float,
               centers, velocities, radii, max_yaw_rate: float, speed: float = 0.0) -> Steer:
@@ -127,25 +129,47 @@ class ConeSteering:
         whose heading is blocked turns in place before it walks.
         """
         cruise = self._cruise(t, vx_ref)
-        if vx_ref <= 1e-3 or len(radii) == 0 or self.horizon <= 0.0:
+        if len(radii) == 0 or self.horizon <= 0.0:
+            self.detour.step(t, yaw, speed, cruise, 0.0, 0.0, max_yaw_rate, _none_blocked)
             return Steer(vx_ref, wz_ref, 0, True)
         p = np.asarray(centers, dtype=float) - np.asarray(pos, dtype=float)[:2]
         w = np.asarray(velocities, dtype=float)
         r = np.asarray(radii, dtype=float) + self.robot_radius
+
+        def blocked(psi: np.ndarray) -> np.ndarray:  # at the planner's cruise speed
+            return blocked_headings(psi, max(cruise, 1e-3), p, w, r, self.horizon)
+
+        detour = self.detour.step(t, yaw, speed, cruise, vx_ref, wz_ref, max_yaw_rate, blocked)
+        if detour is not None:
+            self._side, self._side_time = detour[2], t
+            return Steer(*detour, True)
+        if vx_ref <= 1e-3:
+            self.detour.reset_stall()
+            return Steer(vx_ref, wz_ref, 0, True)
         psi_ref = yaw + wz_ref * self.lookahead
         yaw_blocked, ref_blocked = blocked_headings(np.array([yaw, psi_ref]), vx_ref, p, w, r,
                                                     self.horizon)
         if not yaw_blocked:
+            self.detour.reset_stall()
             out = self._within_free_interval(yaw, psi_ref, vx_ref, wz_ref, p, w, r,
                                              max_yaw_rate)
             if out.side == 0:
                 return out
             return Steer(max(vx_ref, cruise), out.yaw_rate, out.side, True)
         if not ref_blocked:
+            self.detour.reset_stall()
             return Steer(vx_ref, wz_ref, 0, True)
         side = self._pick_side(t, psi_ref, vx_ref, p, w, r)
         if side is None:
+            kept = self._side if t - self._side_time <= self.side_memory else 0
+            if self.detour.stalled(t, speed) and self.detour.start(t, psi_ref, kept, blocked):
+                detour = self.detour.step(t, yaw, speed, cruise, vx_ref, wz_ref, max_yaw_rate,
+                                          blocked)
+                if detour is not None:
+                    self._side, self._side_time = detour[2], t
+                    return Steer(*detour, True)
             return Steer(vx_ref, wz_ref, 0, False)
+        self.detour.reset_stall()
         offset_side, offset = side
         error = math.remainder(psi_ref + offset - yaw, math.tau)
         wz = max(-max_yaw_rate, min(max_yaw_rate, self.heading_gain * error))
@@ -214,3 +238,8 @@ class ConeSteering:
             side = kept  # no dithering between two sides of about the same detour
         self._side, self._side_time = side, t
         return side, best[side]
+
+
+def _none_blocked(psi: np.ndarray) -> np.ndarray:
+    """No heading is blocked (no obstacle): ends a detour."""
+    return np.zeros(np.shape(psi), dtype=bool)

@@ -1,0 +1,145 @@
+"""Leaving a standstill in clutter: a committed detour round the blocked headings (issue #17).
+
+The cone steering (``cone_steering``) turns a reference heading that meets an obstacle to the
+nearest free heading within ``MAX_TURN`` of it; when every heading within that turn is
+blocked (the robot stands in a pocket of pillars, walls or stopped walkers between it and
+where the planner wants to go) it keeps the reference and the QP brakes. The planner knows
+nothing of obstacles and keeps asking for the blocked heading, so the robot stood there until
+its time ran out (random biped seed 4: 30 s between two pillars and a walker that stopped
+beside them).
+
+Once the robot has stood (commanded forward speed below ``START_SPEED``) for ``STALL_TIME``
+with no free heading, this stage starts a **detour**: it remembers the heading the planner
+asked for (``goal_heading``), commits to one side (the nearest free heading on either side,
+up to half a turn away; the side the steering kept last when about as near), turns in place
+to that free heading and walks along it at the planner's cruise speed; a free heading behind
+the robot (more than a quarter turn away) is backed along, rear first (a robot boxed in
+cannot turn in place: its front would swing towards the walls beside it, which the barrier
+refuses). Every cycle the heading
+is the free one nearest ``goal_heading`` on the committed side (``EDGE_STEPS`` off the
+blocked sector's edge), so the robot follows the edge of the blocked headings round the
+obstacles, as a bug algorithm follows a boundary, while the planner, turned away from its
+goal, asks to turn back in place. The detour ends when ``goal_heading`` itself is free from
+where the robot is, when the planner stops (zero speed and yaw rate), or after
+``DETOUR_MAX``. The QP filters every shaped reference: no barrier constraint is weakened.
+Units: s, rad, m/s; headings in odom (REP-103).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["DETOUR_MAX", "STALL_TIME", "TURN_FIRST", "StallDetour"]
+
+STALL_TIME = 2.0
+"""Time [s] stood still with no free heading before a detour starts."""
+DETOUR_MAX = 15.0
+"""Longest detour [s]; a robot still blocked after it stalls again and starts a new one."""
+TURN_FIRST = math.radians(10.0)
+"""Heading error [rad] above which a detour from (near) rest turns in place before walking."""
+
+Blocked = Callable[[np.ndarray], np.ndarray]
+"""``blocked(headings)``: ``(k,)`` bool, heading (odom, rad) meets an obstacle at cruise speed."""
+
+
+@dataclass
+class _Detour:
+    goal_heading: float  # rad, odom: the heading the planner asked for when the robot stalled
+    side: int  # +1 round the blocked headings to the left (counter-clockwise), -1 right
+    since: float  # s
+
+
+class StallDetour:
+    """The detour stage of the cone steering (see the module docstring)."""
+
+    def __init__(self, heading_step: float, heading_gain: float, start_speed: float,
+                 edge_steps: int) -> None:
+        """Configure the stage (units in the arguments' descriptions).
+
+        ``heading_step`` [rad] of the search, ``heading_gain`` [1/s] (yaw rate per rad),
+        ``start_speed`` [m/s] below which the robot counts as standing, ``edge_steps``
+        (heading steps kept off a blocked sector's edge).
+        """
+        n = int(math.ceil(math.pi / heading_step))
+        self._offsets = heading_step * np.arange(1, n + 1)  # up to half a turn
+        self.heading_gain, self.start_speed = heading_gain, start_speed
+        self.edge_steps = edge_steps
+        self._stood_since: float | None = None
+        self._detour: _Detour | None = None
+
+    @property
+    def active(self) -> bool:
+        """A detour is under way."""
+        return self._detour is not None
+
+    def reset_stall(self) -> None:
+        """A free heading was found (or nothing is asked): the standstill clock restarts."""
+        self._stood_since = None
+
+    def stalled(self, t: float, speed: float) -> bool:
+        """Note that no heading is free at ``t`` [s]; whether the robot has stood long enough.
+
+        ``speed``: the commanded forward speed [m/s].
+        """
+        if speed >= self.start_speed:
+            self._stood_since = None
+            return False
+        if self._stood_since is None:
+            self._stood_since = t
+        return t - self._stood_since >= STALL_TIME
+
+    def start(self, t: float, goal_heading: float, kept_side: int, blocked: Blocked) -> bool:
+        """Begin a detour from ``goal_heading`` [rad]; False when no heading at all is free."""
+        best = {}
+        for side in (1, -1):
+            offset = self._free_offset(goal_heading, side, blocked)
+            if offset is not None:
+                best[side] = offset
+        if not best:
+            return False
+        side = min(best, key=lambda s: best[s])
+        if kept_side in best and best[kept_side] <= best[side] + math.radians(45.0):
+            side = kept_side
+        self._detour = _Detour(goal_heading, side, t)
+        self._stood_since = None
+        return True
+
+    def step(self, t: float, yaw: float, speed: float, cruise: float, vx_ref: float,
+             wz_ref: float, max_yaw_rate: float,
+             blocked: Blocked) -> tuple[float, float, int] | None:
+        """``(vx [m/s], yaw rate [rad/s], side)`` of the detour at ``t``; None once it ends.
+
+        ``speed``: commanded forward speed [m/s]; ``cruise``: the planner's cruise speed [m/s].
+        """
+        d = self._detour
+        if d is None:
+            return None
+        stopped = vx_ref <= 1e-3 and abs(wz_ref) <= 1e-3
+        expired = not 0.0 <= t - d.since <= DETOUR_MAX
+        if stopped or expired or not blocked(np.array([d.goal_heading]))[0]:
+            self._detour = None
+            return None
+        offset = self._free_offset(d.goal_heading, d.side, blocked)
+        if offset is None:
+            self._detour = None
+            return None
+        error = math.remainder(d.goal_heading + d.side * offset - yaw, math.tau)
+        sign = 1.0
+        if abs(error) > math.pi / 2:  # behind: back out along it, the rear first
+            error, sign = math.remainder(error - math.pi, math.tau), -1.0
+        wz = max(-max_yaw_rate, min(max_yaw_rate, self.heading_gain * error))
+        if sign > 0 and abs(error) > TURN_FIRST and speed < self.start_speed:
+            return 0.0, wz, d.side
+        return sign * cruise * max(math.cos(error), 0.0), wz, d.side
+
+    def _free_offset(self, goal_heading: float, side: int, blocked: Blocked) -> float | None:
+        """Offset [rad, >= 0] of the first free heading on ``side``, off the edge; None."""
+        free = ~blocked(goal_heading + side * self._offsets)
+        if not free.any():
+            return None
+        k = min(int(np.argmax(free)) + self.edge_steps, len(self._offsets) - 1)
+        return float(self._offsets[k])

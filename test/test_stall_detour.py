@@ -1,0 +1,120 @@
+"""Leaving a standstill in a pocket of walls: the cone steering's detour (issue #17)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from filter_harness import SimpleRobot
+
+from safe_legged_c3bf.c3bf.body import robot_body
+from safe_legged_c3bf.c3bf.geometry import Plane
+from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
+from safe_legged_c3bf.safety import stall_detour
+from safe_legged_c3bf.safety.obstacle_input import ObstacleInput
+from safe_legged_c3bf.safety.params import FilterParams
+from safe_legged_c3bf.safety.safety_cycle import SafetyFilterCycle
+from safe_legged_c3bf.safety.stall_detour import StallDetour
+
+RATE = 50.0
+DT = 1.0 / RATE
+GOAL = np.array([7.0, 0.0])
+#: (centre x, y, half length, half thickness, orientation): a pocket open towards -x.
+WALLS = [(3.6, 0.0, 1.3, 0.1, math.pi / 2), (2.3, 1.2, 1.3, 0.1, 0.0),
+         (2.3, -1.2, 1.3, 0.1, 0.0)]
+
+
+def walls() -> list[ObstacleInput]:
+    return [ObstacleInput(f"wall{i}", 0, np.array([x, y, 0.6]), np.zeros(3),
+                          np.array([a, b]), 1.2, th) for i, (x, y, a, b, th) in enumerate(WALLS)]
+
+
+def gap(robot: SimpleRobot) -> float:
+    """Least distance [m] from the A1's x-y cover to a wall's box (negative: overlap)."""
+    c, s = math.cos(robot.yaw), math.sin(robot.yaw)
+    out = math.inf
+    for p in robot_body("a1").points_in(Plane.VERTICAL):
+        px = robot.x + c * p.offset[0] - s * p.offset[1]
+        py = robot.y + s * p.offset[0] + c * p.offset[1]
+        for x, y, a, b, th in WALLS:
+            u = (px - x) * math.cos(th) + (py - y) * math.sin(th)
+            v = -(px - x) * math.sin(th) + (py - y) * math.cos(th)
+            d = math.hypot(max(abs(u) - a, 0.0), max(abs(v) - b, 0.0))
+            out = min(out, d - p.radius)
+    return out
+
+
+def goal_seeking(robot: SimpleRobot) -> VelocityCommand:
+    """The planner: obstacle-agnostic, slows to 0 at 60 deg heading error (as ours)."""
+    d = GOAL - (robot.x, robot.y)
+    error = math.remainder(math.atan2(d[1], d[0]) - robot.yaw, math.tau)
+    vx = 0.4 * max(0.0, 1.0 - abs(error) / (math.pi / 3)) if np.hypot(*d) > 0.3 else 0.0
+    return VelocityCommand(vx, 0.0, 0.0, max(-1.0, min(1.0, 1.5 * error)))
+
+
+def run(seconds: float = 60.0):
+    cycle = SafetyFilterCycle(FilterParams(body_model="body", model="unicycle_lateral"))
+    robot = SimpleRobot(x=2.3, y=0.0)  # inside the pocket, facing its back wall
+    obstacles, gaps, texts = walls(), [], set()
+    for k in range(int(seconds * RATE)):
+        t = k * DT
+        out = cycle.step(t, goal_seeking(robot), t, robot.base_state(t), obstacles, t)
+        texts.add(out.text.split(" (")[-1])
+        for _ in range(5):
+            robot.step(out.command, DT / 5)
+        gaps.append(gap(robot))
+        if np.hypot(*(GOAL - (robot.x, robot.y))) < 0.3:
+            break
+    return robot, min(gaps), t
+
+
+def test_a_robot_in_a_pocket_leaves_it_and_reaches_the_goal():
+    robot, least, t = run()
+    assert np.hypot(*(GOAL - (robot.x, robot.y))) < 0.3, (robot, t)
+    assert least > 0.0
+
+
+def test_without_the_detour_it_stands_in_the_pocket(monkeypatch):
+    monkeypatch.setattr(stall_detour, "STALL_TIME", math.inf)
+    robot, least, _ = run(30.0)
+    assert np.hypot(*(GOAL - (robot.x, robot.y))) > 3.0 and least > 0.0
+
+
+def _blocked_within(half_width: float):
+    return lambda psi: np.abs(np.remainder(np.asarray(psi) + math.pi, math.tau) - math.pi) < (
+        half_width)
+
+
+def _grid_heading(edge: float, step: float = math.radians(5.0)) -> float:
+    """The heading a detour aims at: the first free 5-degree step past ``edge``, 2 more."""
+    return (math.ceil(edge / step) + 2) * step
+
+
+def test_a_detour_follows_the_free_heading_nearest_the_goal_and_ends_when_that_is_free():
+    d = StallDetour(math.radians(5.0), 1.5, 0.1, 2)
+    ahead = _blocked_within(1.0)  # every heading within 1 rad of odom +x
+    assert not d.stalled(0.0, 0.0) and not d.stalled(1.9, 0.0) and d.stalled(2.0, 0.0)
+    assert d.start(2.0, 0.0, 1, ahead) and d.active
+    vx, wz, side = d.step(2.0, 0.0, 0.0, 0.3, 0.3, 0.0, 1.0, ahead)
+    assert side == 1 and vx == 0.0 and wz == pytest.approx(1.0)  # turn in place first
+    heading = _grid_heading(1.0)
+    vx, wz, _ = d.step(3.0, heading, 0.0, 0.3, 0.0, -1.0, 1.0, ahead)
+    assert vx > 0.25 and abs(wz) < 0.1  # walks the free heading, whatever the planner asks
+    assert d.step(4.0, heading, 0.3, 0.3, 0.0, 0.0, 1.0, ahead) is None  # the planner stopped
+    assert not d.active
+    d.start(5.0, 0.0, -1, ahead)
+    assert d.step(6.0, 0.0, 0.3, 0.3, 0.3, 0.0, 1.0, _blocked_within(0.0)) is None  # free
+    assert not d.stalled(7.0, 0.2)  # moving: the standstill clock restarts
+
+
+def test_a_free_heading_behind_is_backed_along_and_a_detour_has_an_end():
+    d = StallDetour(math.radians(5.0), 1.5, 0.1, 2)
+    boxed = _blocked_within(2.5)  # free only within 0.64 rad of straight behind
+    assert d.start(0.0, 0.0, 1, boxed)
+    vx, wz, side = d.step(0.0, 0.0, 0.0, 0.3, 0.3, 0.0, 1.0, boxed)
+    heading = _grid_heading(2.5)
+    assert vx < 0.0 and side == 1  # backs out, rear first
+    assert wz == pytest.approx(1.5 * math.remainder(heading - math.pi, math.tau))
+    assert d.step(stall_detour.DETOUR_MAX + 0.1, 0.0, 0.0, 0.3, 0.3, 0.0, 1.0, boxed) is None
+    assert not d.start(0.0, 0.0, 1, _blocked_within(4.0))  # nothing free at all
