@@ -118,3 +118,24 @@ def test_a_free_heading_behind_is_backed_along_and_a_detour_has_an_end():
     assert wz == pytest.approx(1.5 * math.remainder(heading - math.pi, math.tau))
     assert d.step(stall_detour.DETOUR_MAX + 0.1, 0.0, 0.0, 0.3, 0.3, 0.0, 1.0, boxed) is None
     assert not d.start(0.0, 0.0, 1, _blocked_within(4.0))  # nothing free at all
+
+
+def _half_ring(speed: float):
+    angles = np.radians(np.arange(-130.0, 131.0, 10.0))
+    centres = [[1.0 * math.cos(a), 1.0 * math.sin(a)] for a in angles]
+    return centres, [[0.0, speed]] * len(centres), [0.3] * len(centres)
+
+
+@pytest.mark.parametrize(("speed", "detour"), [(0.0, True), (0.3, False)])
+def test_a_standstill_among_static_obstacles_detours_one_among_movers_waits(speed, detour):
+    from safe_legged_c3bf.safety.cone_steering import ConeSteering
+
+    s = ConeSteering(20.0, 0.2, 0.5, 1.5, cruise_memory=30.0)
+    outs = [s.steer(0.1 * k, (0, 0), 0.0, 0.4, 0.0, *_half_ring(speed), 1.0, speed=0.0)
+            for k in range(31)]
+    assert not any(o.detour for o in outs[:20])  # 2 s standing first
+    assert outs[-1].detour is detour
+    if detour:
+        assert outs[-1].vx < 0.0  # the free headings are behind: it backs out
+    else:
+        assert not outs[-1].free  # held by movers: the QP brakes, the robot waits

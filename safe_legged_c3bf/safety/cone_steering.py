@@ -41,7 +41,8 @@ from safe_legged_c3bf.safety.stall_detour import StallDetour
 from safe_legged_c3bf.safety.velocity_obstacles import first_contact_times
 
 __all__ = [
-    "EDGE_STEPS", "MAX_TURN", "START_SPEED", "SWITCH_MARGIN", "ConeSteering", "Steer",
+    "EDGE_STEPS", "MAX_TURN", "START_SPEED", "STATIC_SPEED", "SWITCH_MARGIN", "ConeSteering",
+    "Steer",
     "blocked_headings",
     "cover_half_width",
 ]
@@ -53,6 +54,8 @@ EDGE_STEPS = 2
 """Heading steps (of ``heading_step``) the steering keeps off a cone's edge."""
 START_SPEED = 0.1
 """Commanded speed [m/s] below which a blocked heading is turned in place before walking."""
+STATIC_SPEED = 0.05
+"""Speed [m/s] below which an obstacle counts as static (a stall among movers is waited out)."""
 SWITCH_MARGIN = math.radians(45.0)
 """The kept side is left only for a side whose free heading is this much nearer [rad]."""
 
@@ -65,6 +68,7 @@ class Steer:
     yaw_rate: float
     side: int  # +1 turned left of the reference heading, -1 right, 0 unchanged
     free: bool  # a free heading was found (False: the reference is kept, the QP brakes)
+    detour: bool = False  # on a detour out of a standstill (``stall_detour``)
 
 
 def cover_half_width(body) -> float:  # noqa: ANN001 - a c3bf RobotBody or None
@@ -142,7 +146,7 @@ class ConeSteering:
         detour = self.detour.step(t, yaw, speed, cruise, vx_ref, wz_ref, max_yaw_rate, blocked)
         if detour is not None:
             self._side, self._side_time = detour[2], t
-            return Steer(*detour, True)
+            return Steer(*detour, True, True)
         if vx_ref <= 1e-3:
             self.detour.reset_stall()
             return Steer(vx_ref, wz_ref, 0, True)
@@ -162,12 +166,13 @@ class ConeSteering:
         side = self._pick_side(t, psi_ref, vx_ref, p, w, r)
         if side is None:
             kept = self._side if t - self._side_time <= self.side_memory else 0
-            if self.detour.stalled(t, speed) and self.detour.start(t, psi_ref, kept, blocked):
+            if (self.detour.stalled(t, speed) and self._static_dead_end(psi_ref, cruise, p, w, r)
+                    and self.detour.start(t, psi_ref, kept, blocked)):
                 detour = self.detour.step(t, yaw, speed, cruise, vx_ref, wz_ref, max_yaw_rate,
                                           blocked)
                 if detour is not None:
                     self._side, self._side_time = detour[2], t
-                    return Steer(*detour, True)
+                    return Steer(*detour, True, True)
             return Steer(vx_ref, wz_ref, 0, False)
         self.detour.reset_stall()
         offset_side, offset = side
@@ -179,6 +184,18 @@ class ConeSteering:
         if speed < START_SPEED:
             return Steer(0.0, wz, offset_side, True)
         return Steer(max(vx_ref, cruise) * max(math.cos(error), 0.0), wz, offset_side, True)
+
+    def _static_dead_end(self, psi_ref, cruise, p, w, r) -> bool:
+        """No heading within ``MAX_TURN`` of ``psi_ref`` is free of the static obstacles alone.
+
+        A robot held only by movers waits for them to pass rather than detour (a detour is
+        for a standstill in front of static obstacles: pillars, walls, stopped walkers).
+        """
+        still = np.hypot(w[:, 0], w[:, 1]) < STATIC_SPEED
+        if not still.any():
+            return False
+        return bool(blocked_headings(psi_ref + self._both, max(cruise, 1e-3), p[still],
+                                     w[still], r[still], self.horizon).all())
 
     def _cruise(self, t: float, vx_ref: float) -> float:
         """The largest forward speed [m/s] asked for in the last ``cruise_memory`` s.

@@ -85,7 +85,10 @@ class ReferenceShaping:
         if out.side == 0:
             return "" if out.free else " (no free heading: following)"
         ref_arr[0], ref_arr[3] = out.vx, out.yaw_rate
-        return f" (steering {'left' if out.side > 0 else 'right'} out of a collision cone)"
+        side = "left" if out.side > 0 else "right"
+        if out.detour:
+            return f" (detour {side} round the blocked headings: out of a standstill)"
+        return f" (steering {side} out of a collision cone)"
 
     def _hold_before_walls(self, ref_arr, circles, walled, ids, pos, yaw) -> str:  # noqa: ANN001
         """Zero the planar velocity while the reference's path meets a walled bar."""

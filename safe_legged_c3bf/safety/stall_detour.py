@@ -9,7 +9,9 @@ its time ran out (random biped seed 4: 30 s between two pillars and a walker tha
 beside them).
 
 Once the robot has stood (commanded forward speed below ``START_SPEED``) for ``STALL_TIME``
-with no free heading, this stage starts a **detour**: it remembers the heading the planner
+with no free heading, and no heading would be free of the static obstacles alone either (a
+robot held by movers waits for them to pass: ``cone_steering.STATIC_SPEED``), this stage
+starts a **detour**: it remembers the heading the planner
 asked for (``goal_heading``), commits to one side (the nearest free heading on either side,
 up to half a turn away; the side the steering kept last when about as near), turns in place
 to that free heading and walks along it at the planner's cruise speed; a free heading behind
