@@ -5,8 +5,8 @@ nearest free heading within ``MAX_TURN`` of it; when every heading within that t
 blocked (the robot stands in a pocket of pillars, walls or stopped walkers between it and
 where the planner wants to go) it keeps the reference and the QP brakes. The planner knows
 nothing of obstacles and keeps asking for the blocked heading, so the robot stood there until
-its time ran out (random biped seed 4: 30 s between two pillars and a walker that stopped
-beside them).
+its time ran out (random biped seed 4 stood 30 s between two pillars and walkers; held by
+the walkers, it waits: see below).
 
 Once the robot has stood (commanded forward speed below ``START_SPEED``) for ``STALL_TIME``
 with no free heading, and no heading would be free of the static obstacles alone either (a
