@@ -143,10 +143,9 @@ class ConeSteering:
         def blocked(psi: np.ndarray) -> np.ndarray:  # at the planner's cruise speed
             return blocked_headings(psi, max(cruise, 1e-3), p, w, r, self.horizon)
 
-        detour = self.detour.step(t, yaw, speed, cruise, vx_ref, wz_ref, max_yaw_rate, blocked)
+        detour = self._detour_step(t, yaw, speed, cruise, vx_ref, wz_ref, max_yaw_rate, blocked)
         if detour is not None:
-            self._side, self._side_time = detour[2], t
-            return Steer(*detour, True, True)
+            return detour
         if vx_ref <= 1e-3:
             self.detour.reset_stall()
             return Steer(vx_ref, wz_ref, 0, True)
@@ -168,11 +167,10 @@ class ConeSteering:
             kept = self._side if t - self._side_time <= self.side_memory else 0
             if (self.detour.stalled(t, speed) and self._static_dead_end(psi_ref, cruise, p, w, r)
                     and self.detour.start(t, psi_ref, kept, blocked)):
-                detour = self.detour.step(t, yaw, speed, cruise, vx_ref, wz_ref, max_yaw_rate,
-                                          blocked)
+                detour = self._detour_step(t, yaw, speed, cruise, vx_ref, wz_ref,
+                                           max_yaw_rate, blocked)
                 if detour is not None:
-                    self._side, self._side_time = detour[2], t
-                    return Steer(*detour, True, True)
+                    return detour
             return Steer(vx_ref, wz_ref, 0, False)
         self.detour.reset_stall()
         offset_side, offset = side
@@ -184,6 +182,15 @@ class ConeSteering:
         if speed < START_SPEED:
             return Steer(0.0, wz, offset_side, True)
         return Steer(max(vx_ref, cruise) * max(math.cos(error), 0.0), wz, offset_side, True)
+
+    def _detour_step(self, t, yaw, speed, cruise, vx_ref, wz_ref, max_yaw_rate,
+                     blocked) -> Steer | None:
+        """The detour's shaped reference (its side kept as the steering's); None: no detour."""
+        out = self.detour.step(t, yaw, speed, cruise, vx_ref, wz_ref, max_yaw_rate, blocked)
+        if out is None:
+            return None
+        self._side, self._side_time = out[2], t
+        return Steer(*out, True, True)
 
     def _static_dead_end(self, psi_ref, cruise, p, w, r) -> bool:
         """No heading within ``MAX_TURN`` of ``psi_ref`` is free of the static obstacles alone.
