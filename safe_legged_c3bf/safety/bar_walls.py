@@ -151,11 +151,11 @@ class BarWalls:
         a wall if the mean exceeds ``+WALL_BAND``. Then the average follows the deficit over
         ``WALL_TAU`` with a hysteresis of ``WALL_BAND``: a bar becomes a wall when the average
         exceeds ``+WALL_BAND`` and stops being one below ``-WALL_BAND``; within the band it
-        stays what it was. So perception noise on its height
-        and size does not switch it back and forth every message, and one noisy first sighting
-        of a bar passable by a few mm does not make a wall for the rest of the run (random
-        biped seed 7). A bar not walled is still kept from the x-z circles. Without an id, or
-        with ``t`` None: the rule at this instant.
+        stays what it was. So perception noise on its height and size does not switch it back
+        and forth every message, and one noisy first sighting of a bar passable by a few mm
+        does not make a wall for the rest of the run (random biped seed 7). A bar not walled
+        is still kept from the x-z circles. Without an id, or with ``t`` None: the rule at
+        this instant.
         """
         out = np.asarray(deficit) > 0.0
         if t is None:

@@ -37,7 +37,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from safe_legged_c3bf.safety.stall_detour import StallDetour
+from safe_legged_c3bf.safety.stall_detour import (
+    SWITCH_MARGIN,
+    StallDetour,
+    chosen_side,
+    first_free_offset,
+)
 from safe_legged_c3bf.safety.velocity_obstacles import first_contact_times
 
 __all__ = [
@@ -56,8 +61,6 @@ START_SPEED = 0.1
 """Commanded speed [m/s] below which a blocked heading is turned in place before walking."""
 STATIC_SPEED = 0.05
 """Speed [m/s] below which an obstacle counts as static (a stall among movers is waited out)."""
-SWITCH_MARGIN = math.radians(45.0)
-"""The kept side is left only for a side whose free heading is this much nearer [rad]."""
 
 
 @dataclass(frozen=True)
@@ -134,7 +137,7 @@ class ConeSteering:
         """
         cruise = self._cruise(t, vx_ref)
         if len(radii) == 0 or self.horizon <= 0.0:
-            self.detour.step(t, yaw, speed, cruise, 0.0, 0.0, max_yaw_rate, _none_blocked)
+            self.detour.cancel()
             return Steer(vx_ref, wz_ref, 0, True)
         p = np.asarray(centers, dtype=float) - np.asarray(pos, dtype=float)[:2]
         w = np.asarray(velocities, dtype=float)
@@ -251,19 +254,13 @@ class ConeSteering:
         both = ~blocked_headings(psi_ref + self._both, speed, p, w, r, self.horizon)
         for side, offsets, free in ((1, self._left, both[:self._n]),
                                     (-1, self._right, both[self._n:])):
-            if free.any():  # EDGE_STEPS beyond the first free heading: off the cone's edge
-                k = min(int(np.argmax(free)) + EDGE_STEPS, len(offsets) - 1)
-                best[side] = float(offsets[k])
+            offset = first_free_offset(free, offsets, EDGE_STEPS)  # off the cone's edge
+            if offset is not None:
+                best[side] = offset
         if not best:
             return None
         kept = self._side if t - self._side_time <= self.side_memory else 0
-        side = min(best, key=lambda s: abs(best[s]))
-        if kept in best and abs(best[kept]) <= abs(best[side]) + SWITCH_MARGIN:
-            side = kept  # no dithering between two sides of about the same detour
+        side = chosen_side(best, kept)
         self._side, self._side_time = side, t
         return side, best[side]
 
-
-def _none_blocked(psi: np.ndarray) -> np.ndarray:
-    """No heading is blocked (no obstacle): ends a detour."""
-    return np.zeros(np.shape(psi), dtype=bool)

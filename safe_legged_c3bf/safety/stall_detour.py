@@ -35,7 +35,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["DETOUR_MAX", "STALL_TIME", "TURN_FIRST", "StallDetour"]
+__all__ = [
+    "DETOUR_MAX", "STALL_TIME", "SWITCH_MARGIN", "TURN_FIRST", "StallDetour", "chosen_side",
+    "first_free_offset",
+]
 
 STALL_TIME = 2.0
 """Time [s] stood still with no free heading before a detour starts."""
@@ -43,6 +46,29 @@ DETOUR_MAX = 15.0
 """Longest detour [s]; a robot still blocked after it stalls again and starts a new one."""
 TURN_FIRST = math.radians(10.0)
 """Heading error [rad] above which a detour from (near) rest turns in place before walking."""
+SWITCH_MARGIN = math.radians(45.0)
+"""The kept side is left only for a side whose free heading is this much nearer [rad]."""
+
+def first_free_offset(free: np.ndarray, offsets: np.ndarray, edge_steps: int) -> float | None:
+    """The offset [rad] ``edge_steps`` beyond the first ``free`` one; None if none is free.
+
+    Off the blocked sector's edge, where every row's h is 0; capped at the last offset.
+    """
+    if not free.any():
+        return None
+    return float(offsets[min(int(np.argmax(free)) + edge_steps, len(offsets) - 1)])
+
+
+def chosen_side(best: dict[int, float], kept: int) -> int:
+    """The side (+1 / -1) of the nearest free heading (``best``: side -> offset [rad]).
+
+    The ``kept`` side while it is within ``SWITCH_MARGIN`` of that, so noise cannot dither.
+    """
+    side = min(best, key=lambda s: abs(best[s]))
+    if kept in best and abs(best[kept]) <= abs(best[side]) + SWITCH_MARGIN:
+        return kept
+    return side
+
 
 Blocked = Callable[[np.ndarray], np.ndarray]
 """``blocked(headings)``: ``(k,)`` bool, heading (odom, rad) meets an obstacle at cruise speed."""
@@ -78,6 +104,10 @@ class StallDetour:
         """A detour is under way."""
         return self._detour is not None
 
+    def cancel(self) -> None:
+        """End a detour under way (nothing is left to detour round)."""
+        self._detour = None
+
     def reset_stall(self) -> None:
         """A free heading was found (or nothing is asked): the standstill clock restarts."""
         self._stood_since = None
@@ -103,10 +133,7 @@ class StallDetour:
                 best[side] = offset
         if not best:
             return False
-        side = min(best, key=lambda s: best[s])
-        if kept_side in best and best[kept_side] <= best[side] + math.radians(45.0):
-            side = kept_side
-        self._detour = _Detour(goal_heading, side, t)
+        self._detour = _Detour(goal_heading, chosen_side(best, kept_side), t)
         self._stood_since = None
         return True
 
@@ -141,7 +168,4 @@ class StallDetour:
     def _free_offset(self, goal_heading: float, side: int, blocked: Blocked) -> float | None:
         """Offset [rad, >= 0] of the first free heading on ``side``, off the edge; None."""
         free = ~blocked(goal_heading + side * self._offsets)
-        if not free.any():
-            return None
-        k = min(int(np.argmax(free)) + self.edge_steps, len(self._offsets) - 1)
-        return float(self._offsets[k])
+        return first_free_offset(free, self._offsets, self.edge_steps)
