@@ -257,3 +257,15 @@ def test_wall_pieces_stay_put_while_the_robot_moves_along_the_wall():
     for o in inner:
         nearest = min(np.hypot(*(p.center[:2] - o.center[:2])) for p in before)
         assert nearest < 0.02, o.center
+
+
+def test_only_a_wall_piece_s_open_ends_are_uncertain_along_the_wall():
+    """Pieces cut at both ends report ~position_std along the wall; end pieces, whose centre
+    moves as more of the wall comes into view, (max_piece_length / 4)^2 per open end (#19)."""
+    wall = Box(2.5, 0.1, length=0.2, width=3.0, height=1.0)  # face x = 2.4, y -1.4 .. 1.6
+    pieces = sorted(vertical(detect([wall])), key=lambda o: o.center[1])
+    along = [math.sqrt(o.position_covariance[1, 1]) for o in pieces]
+    across = [math.sqrt(o.position_covariance[0, 0]) for o in pieces]
+    assert len(pieces) == 7, along  # cut at y = -1, -0.5, ..., 1.5
+    assert max(along[1:-1]) < 0.03 and max(across) < 0.03, (along, across)
+    assert min(along[0], along[-1]) > 0.12, along

@@ -76,6 +76,7 @@ def detections_from_msg(msg: ObstacleArray) -> list[Detection]:
             id=o.id,
             frame_id=msg.header.frame_id,
             extent=o.extent,
+            position_covariance=np.asarray(o.position_covariance, dtype=float).reshape(3, 3),
         )
         for o in msg.obstacles
     ]

@@ -9,7 +9,9 @@ section 6.2.2): for a time step ``dt``
     Q = q [[dt^3/3 I, dt^2/2 I], [dt^2/2 I, dt I]]
 
 where ``q`` is the power spectral density of the acceleration noise (m^2/s^3).  The sensor
-measures the position only, ``z = p + w`` with ``w ~ N(0, sigma^2 I)``.
+measures the position only, ``z = p + w`` with ``w ~ N(0, sigma^2 I)``, or with the
+measurement's own covariance ``R`` when the caller passes one (a detector that knows which
+directions it measures poorly).
 
 The filter keeps its own time stamp so that it can be predicted to absolute times, and it
 offers side-effect free predictions (:meth:`ConstantVelocityKalmanFilter.state_at`) for
@@ -31,6 +33,7 @@ import numpy as np
 __all__ = [
     "ConstantVelocityKalmanFilter",
     "FilterState",
+    "floored_covariance",
     "process_noise",
     "transition_matrix",
 ]
@@ -52,6 +55,18 @@ def _check_positive(name: str, value: float, allow_zero: bool = False) -> float:
         bound = ">= 0" if allow_zero else "> 0"
         raise ValueError(f"{name} must be finite and {bound}, got {value!r}")
     return value
+
+
+def floored_covariance(cov: np.ndarray, std_floor: float) -> np.ndarray:
+    """Symmetric part of ``cov`` (m^2) with every eigenvalue raised to ``std_floor^2`` at least.
+
+    A reported covariance may be zero (unknown), rank-deficient or slightly indefinite from
+    rounding; the floor makes it a usable, positive definite measurement noise.
+    """
+    C = np.asarray(cov, dtype=float)
+    C = 0.5 * (C + C.T)
+    w, V = np.linalg.eigh(C)
+    return (V * np.maximum(w, float(std_floor) ** 2)) @ V.T
 
 
 def transition_matrix(dim: int, dt: float) -> np.ndarray:
@@ -264,7 +279,15 @@ class ConstantVelocityKalmanFilter:
         self.predict(float(t) - self._time)
 
     # ------------------------------------------------------------------ update
-    def _measurement_cov(self, measurement_std: float | None) -> np.ndarray:
+    def _measurement_cov(
+        self, measurement_std: float | None, measurement_cov: np.ndarray | None = None
+    ) -> np.ndarray:
+        """``R``: ``measurement_cov`` when given, else ``measurement_std^2 I`` (m^2)."""
+        if measurement_cov is not None:
+            R = np.asarray(measurement_cov, dtype=float)
+            if R.shape != (self._dim, self._dim) or not np.all(np.isfinite(R)):
+                raise ValueError(f"measurement_cov must be a finite {self._dim}-square matrix")
+            return R
         var = (
             self._measurement_var
             if measurement_std is None
@@ -273,15 +296,22 @@ class ConstantVelocityKalmanFilter:
         return var * np.eye(self._dim)
 
     def innovation(
-        self, z: Sequence[float] | np.ndarray, measurement_std: float | None = None
+        self,
+        z: Sequence[float] | np.ndarray,
+        measurement_std: float | None = None,
+        measurement_cov: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Return the innovation ``y = z - H x`` and its covariance ``S`` (current state)."""
+        """Return the innovation ``y = z - H x`` and its covariance ``S`` (current state).
+
+        ``measurement_cov`` (m^2, positive definite), when given, is the measurement's own
+        covariance ``R`` instead of ``measurement_std^2 I``.
+        """
         z = np.asarray(z, dtype=float).reshape(-1)
         if z.size != self._dim:
             raise ValueError(f"measurement must have {self._dim} coordinates, got {z.size}")
         d = self._dim
         y = z - self._x[:d]
-        S = self._P[:d, :d] + self._measurement_cov(measurement_std)
+        S = self._P[:d, :d] + self._measurement_cov(measurement_std, measurement_cov)
         return y, S
 
     def mahalanobis_sq(
@@ -292,18 +322,22 @@ class ConstantVelocityKalmanFilter:
         return float(y @ np.linalg.solve(S, y))
 
     def update(
-        self, z: Sequence[float] | np.ndarray, measurement_std: float | None = None
+        self,
+        z: Sequence[float] | np.ndarray,
+        measurement_std: float | None = None,
+        measurement_cov: np.ndarray | None = None,
     ) -> float:
         """Correct the estimate with position measurement ``z``.
 
         Uses the Joseph form for numerical robustness.  Returns the normalised innovation
         squared (NIS) of the measurement, which is chi-square distributed with ``dim``
-        degrees of freedom when the filter is consistent.
+        degrees of freedom when the filter is consistent.  ``measurement_cov``: as in
+        :meth:`innovation`.
         """
         z = np.asarray(z, dtype=float).reshape(-1)
         if not np.all(np.isfinite(z)):
             raise ValueError("measurement must be finite")
-        y, S = self.innovation(z, measurement_std)
+        y, S = self.innovation(z, measurement_std, measurement_cov)
         d = self._dim
         PHt = self._P[:, :d]  # P H^T with H = [I 0]
         K = np.linalg.solve(S, PHt.T).T  # S is symmetric
@@ -311,7 +345,7 @@ class ConstantVelocityKalmanFilter:
         self._x = self._x + K @ y
         IKH = np.eye(2 * d)
         IKH[:, :d] -= K
-        R = self._measurement_cov(measurement_std)
+        R = self._measurement_cov(measurement_std, measurement_cov)
         P = IKH @ self._P @ IKH.T + K @ R @ K.T
         self._P = 0.5 * (P + P.T)
         return nis

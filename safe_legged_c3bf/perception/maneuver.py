@@ -97,6 +97,7 @@ class _Update:
     prior: FilterState
     nis: float
     logdet: float
+    R: np.ndarray | None  # the measurement's own covariance (m^2), None: the filter's
 
 
 @dataclass(frozen=True, eq=False)
@@ -174,13 +175,15 @@ class ManeuverDetector:
         covariance: np.ndarray,
         axes: Sequence[int],
         test: bool = True,
+        measurement_cov: np.ndarray | None = None,
     ) -> bool:
         """Take the update ``kf`` just made; correct ``kf`` and return True on a manoeuvre.
 
         ``prior`` is the estimate before the update (before its prediction), ``z`` the measured
         position, ``innovation`` and ``covariance`` the update's innovation and its covariance,
         ``axes`` the coordinates of the obstacle's plane (two of 0, 1, 2). With ``test`` False
-        (a velocity not yet estimated) the update is only kept.
+        (a velocity not yet estimated) the update is only kept. ``measurement_cov`` (m^2): the
+        update's measurement covariance when it had its own; used again when processing again.
         """
         axes = tuple(int(a) for a in axes)
         if axes != self._axes:  # a new plane: the kept updates measured other coordinates
@@ -190,7 +193,8 @@ class ManeuverDetector:
         scale = self.noise_scale
         if self._noise is not None:
             self._noise.append(nis)
-        self._updates.append(_Update(kf.time, np.array(z, dtype=float), prior, nis, logdet))
+        self._updates.append(
+            _Update(kf.time, np.array(z, dtype=float), prior, nis, logdet, measurement_cov))
         if not test or (self._noise is not None and not self._noise_measured):
             return False
         updates = list(self._updates)
@@ -249,9 +253,9 @@ class ManeuverDetector:
         fits = True
         for k, u in enumerate(later):
             f.predict_to(u.time)
-            y, S = f.innovation(u.z)
+            y, S = f.innovation(u.z, measurement_cov=u.R)
             nis, logdet = in_plane_terms(y, S, axes)
-            f.update(u.z)
+            f.update(u.z, measurement_cov=u.R)
             drop += u.nis - nis
             cost += nis + logdet
             if k >= fit_from and nis > self.fit_threshold * scale:

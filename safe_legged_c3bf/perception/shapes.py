@@ -32,8 +32,10 @@ and the extent is that height (a scan-only obstacle reaches at least up to its s
 
 Covariances (m^2, odom x y z): for a circle, the Gauss-Newton covariance of its centre; for
 the other fits, the standard error of the points' mean per principal axis plus, along the
-viewing direction, (depth / 4)^2 for the mirrored far side. ``position_std^2`` is added to
-every axis.
+viewing direction, (depth / 4)^2 for the mirrored far side, and along a wall piece's axis
+(max_piece_length / 4)^2 for each end where the returns stop instead of a cut (its centre
+moves as more of the wall comes into view). ``position_std^2`` is added to every axis. The tracker
+weighs each detection by it, so that such moves do not become speeds.
 """
 
 from __future__ import annotations
@@ -205,8 +207,23 @@ def enclosing_ellipse(
     if b > a:
         a, b, orientation = b, a, orientation + 0.5 * math.pi
     spread = np.cov(xy.T) / n if n > 1 else np.zeros((2, 2))
+    if piece is not None:
+        extra = _open_end_variance(piece, config.max_piece_length)
     cov = spread + extra + config.position_std**2 * np.eye(2)
     return Ellipse2D(axes @ mid, (float(a), float(b)), _wrap_half(orientation), cov)
+
+
+def _open_end_variance(piece: Piece, cell: float) -> np.ndarray:
+    """(2, 2) variance (m^2) of a piece's centre along its axis from its open ends.
+
+    An end cut at a multiple of ``cell`` (m) from the odom origin stays put; an end where the
+    returns stop (the wall's end, an occlusion, the edge of the field of view) may move
+    anywhere within its cell as the robot sees more or less of the wall, and the centre with
+    half of it: (cell / 4)^2 per open end.
+    """
+    open_ends = sum(not math.isclose(b / cell, round(b / cell), abs_tol=1e-6)
+                    for b in (piece.low, piece.high))
+    return open_ends * (0.25 * cell) ** 2 * np.outer(piece.axis, piece.axis)
 
 
 def split_pieces(xy: np.ndarray, max_length: float, depth: int = 0) -> list[Piece]:

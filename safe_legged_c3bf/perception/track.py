@@ -37,7 +37,7 @@ from safe_legged_c3bf.interfaces.typed_params import (
     interval,
     param,
 )
-from safe_legged_c3bf.perception.kalman import ConstantVelocityKalmanFilter
+from safe_legged_c3bf.perception.kalman import ConstantVelocityKalmanFilter, floored_covariance
 from safe_legged_c3bf.perception.maneuver import ManeuverDetector
 
 __all__ = [
@@ -94,6 +94,11 @@ class Detection:
         Length along the extrusion axis (m): z for ``VERTICAL``, odom y for ``HORIZONTAL``
         (``Obstacle.msg`` field of the same name).  Must be > 0; ``inf`` (the default) means
         unbounded, the conservative choice.
+    position_covariance:
+        ``(3, 3)`` covariance of ``center`` (m^2, odom) as the detector reports it, or
+        ``None`` (unknown: ``TrackConfig.measurement_std`` is used).  A detector knows which
+        directions it measures poorly (the unseen far side of a cluster, the open end of a
+        wall piece); the track's filter weighs the detection by it.
 
     """
 
@@ -104,6 +109,7 @@ class Detection:
     id: str = ""
     frame_id: str = "odom"
     extent: float = math.inf
+    position_covariance: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -187,6 +193,13 @@ class TrackConfig(TypedParams):
         "detector (maneuver_*), without it only after 1.5-2 s", NON_NEGATIVE,
     )
     measurement_std: float = param(0.02, "m", "position measurement noise per axis", POSITIVE)
+    use_detection_covariance: bool = param(
+        False, "-", "weigh each detection by its own position covariance (Obstacle.msg "
+        "position_covariance), floored at measurement_std^2 along every principal axis; "
+        "false: measurement_std for every detection. Off by default: with the obstacle "
+        "detector's covariances it measured no gain (config/obstacle_tracker.yaml) (flag)",
+        FLAG,
+    )
     initial_velocity_std: float = param(
         1.5, "m/s", "prior velocity standard deviation of a new track; covers walking speeds",
         POSITIVE,
@@ -379,11 +392,12 @@ class Track:
         estimate further (:mod:`safe_legged_c3bf.perception.maneuver`).
         """
         z = np.asarray(detection.center, dtype=float).reshape(3)
+        R = self._measurement_noise(detection)
         if self._maneuver is None:
             self.kf.predict_to(max(float(t), self.kf.time))
-            nis = self.kf.update(z)
+            nis = self.kf.update(z, measurement_cov=R)
         else:
-            nis = self._watched_update(self._maneuver, z, t, ObstaclePlane(detection.plane))
+            nis = self._watched_update(self._maneuver, z, R, t, ObstaclePlane(detection.plane))
         source_id = str(detection.id) or self._appearance.source_id
         self._appearance = _Appearance(
             semi_axes=(float(detection.semi_axes[0]), float(detection.semi_axes[1])),
@@ -415,17 +429,25 @@ class Track:
         """Mark the track deleted."""
         self._status = TrackStatus.DELETED
 
+    def _measurement_noise(self, detection: Detection) -> np.ndarray | None:
+        """The detection's covariance floored at measurement_std^2 (m^2), or None (module doc)."""
+        cov = detection.position_covariance
+        if cov is None or not self.config.use_detection_covariance:
+            return None
+        return floored_covariance(cov, self.config.measurement_std)
+
     def _watched_update(
-        self, maneuver: ManeuverDetector, z: np.ndarray, t: float, plane: ObstaclePlane
+        self, maneuver: ManeuverDetector, z: np.ndarray, R: np.ndarray | None, t: float,
+        plane: ObstaclePlane,
     ) -> float:
         """The Kalman update, then the manoeuvre test on it; return the update's NIS."""
         prior = self.kf.snapshot()
         self.kf.predict_to(max(float(t), self.kf.time))
         estimated = self.velocity_estimated()
-        innovation, covariance = self.kf.innovation(z)
-        nis = self.kf.update(z)
+        innovation, covariance = self.kf.innovation(z, measurement_cov=R)
+        nis = self.kf.update(z, measurement_cov=R)
         if maneuver.observe(self.kf, prior, z, innovation, covariance, plane_axes(plane),
-                            test=estimated):
+                            test=estimated, measurement_cov=R):
             self._held_estimated = estimated
         elif self._held_estimated and self._velocity_accurate(self.kf.velocity_covariance):
             self._held_estimated = False

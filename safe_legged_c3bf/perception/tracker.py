@@ -178,15 +178,16 @@ def validate_detection(
         orientation = float(detection.orientation)
         extent = float(detection.extent)
         ObstaclePlane(detection.plane)
+        cov = _covariance_of(detection)
         if not isinstance(detection.id, str) or not isinstance(detection.frame_id, str):
             return RejectionReason.MALFORMED
     except (TypeError, ValueError, AttributeError):
         return RejectionReason.MALFORMED
-    if center.shape != (3,) or axes.shape != (2,):
+    if center.shape != (3,) or axes.shape != (2,) or (cov is not None and cov.shape != (3, 3)):
         return RejectionReason.MALFORMED
     if not (
         np.all(np.isfinite(center)) and np.all(np.isfinite(axes)) and math.isfinite(orientation)
-    ) or math.isnan(extent):
+    ) or math.isnan(extent) or (cov is not None and not np.all(np.isfinite(cov))):
         return RejectionReason.NON_FINITE
     if np.any(axes <= 0.0) or extent <= 0.0:
         return RejectionReason.NON_POSITIVE_SIZE
@@ -198,6 +199,12 @@ def validate_detection(
     if float(np.linalg.norm(center - ref)) > max_range:
         return RejectionReason.OUT_OF_RANGE
     return None
+
+
+def _covariance_of(detection: Detection) -> np.ndarray | None:
+    """The detection's position covariance as an array (None when it reports none)."""
+    cov = getattr(detection, "position_covariance", None)
+    return None if cov is None else np.asarray(cov, dtype=float)
 
 
 def _reference_point(reference: Sequence[float] | np.ndarray | None) -> np.ndarray:
