@@ -13,6 +13,9 @@ Printed per scenario and overall:
 - recall: share of (frame, true vertical obstacle within ``--range`` of the robot, surface
   distance) pairs with a vertical detection whose centre lies within ``--match`` m of the
   true ellipse (occluded obstacles count as misses);
+- visible: the same recall over the pairs whose obstacle is not occluded: more than half of
+  its near side hidden from the robot's position behind other true obstacles (straight
+  lines of sight in x-y) makes it occluded, a case no range sensor can see, counted apart;
 - centre error: distance from a compact true obstacle's centre (larger semi-axis <=
   0.35 m) to the nearest matching detection's centre, median and p90 (m);
 - frames without a false obstacle: share of frames in which every detection lies within
@@ -112,6 +115,35 @@ def _in_plane(ob: tuple) -> np.ndarray:
     return np.array([ob[2][0], ob[2][1] if ob[1] == 0 else ob[2][2]])
 
 
+def _sight_blocked(eye: np.ndarray, targets: np.ndarray, ob: tuple) -> np.ndarray:
+    """(n,) bool: the segment from ``eye`` (2,) to each target (n, 2) crosses the ellipse.
+
+    In the ellipse's frame scaled to a unit circle, |q0 + s d|^2 = 1 has a root s in (0, 1).
+    """
+    _id, plane, c, a, b, th, _ext = ob
+    centre = np.array([c[0], c[1] if plane == 0 else c[2]])
+    rot = np.array([[np.cos(th), np.sin(th)], [-np.sin(th), np.cos(th)]])
+    q0 = (rot @ (eye - centre)) / (a, b)
+    d = (targets - eye) @ rot.T / (a, b)
+    if q0 @ q0 <= 1.0:
+        return np.ones(len(targets), dtype=bool)
+    A, B, C = (d * d).sum(1), 2.0 * (d @ q0), q0 @ q0 - 1.0
+    disc = B * B - 4.0 * A * C
+    root = (-B - np.sqrt(np.maximum(disc, 0.0))) / (2.0 * np.maximum(A, 1e-12))
+    return (disc > 0.0) & (root > 0.0) & (root < 0.999)
+
+
+def occluded(eye: np.ndarray, ob: tuple, others: list) -> bool:
+    """More than half of the obstacle's near side is hidden from ``eye`` by ``others``."""
+    pts = _outline(ob)
+    dist = np.hypot(*(pts - eye).T)
+    near = pts[dist <= 0.5 * (dist.min() + dist.max())]
+    hidden = np.zeros(len(near), dtype=bool)
+    for other in others:
+        hidden |= _sight_blocked(eye, near, other)
+    return bool(hidden.mean() > 0.5)
+
+
 def _bar_overlaps_y(det: tuple, bar: tuple) -> bool:
     """A horizontal detection spans part of the bar along y (extrusion axis)."""
     lo, hi = bar[2][1] - bar[6] / 2, bar[2][1] + bar[6] / 2
@@ -121,7 +153,7 @@ def _bar_overlaps_y(det: tuple, bar: tuple) -> bool:
 def score(det: list, truth: list, odom: np.ndarray, opts: argparse.Namespace) -> dict:
     """The figures of one recording (see the module docstring)."""
     t_truth = np.array([t for t, _ in truth])
-    pairs = hits = 0
+    pairs = hits = visible = visible_hits = 0
     errors: list[float] = []
     clean = 0
     first_seen: dict[str, float] = {}
@@ -138,6 +170,9 @@ def score(det: list, truth: list, odom: np.ndarray, opts: argparse.Namespace) ->
             pairs += 1
             near = [d for d in vdet if _distance(_in_plane(d), ob) <= opts.match]
             hits += bool(near)
+            if not occluded(robot, ob, [o for o in vert if o is not ob]):
+                visible += 1
+                visible_hits += bool(near)
             if near and max(ob[3], ob[4]) <= 0.35:
                 errors.append(min(float(np.hypot(*(_in_plane(d) - _in_plane(ob)))) for d in near))
         false = [d for d in found if not any(
@@ -150,6 +185,8 @@ def score(det: list, truth: list, odom: np.ndarray, opts: argparse.Namespace) ->
                     and _bar_overlaps_y(d, ob) for d in found):
                 first_seen[ob[0]] = abs(ob[2][0] - robot[0]) - ob[3]
     return {"frames": len(det), "pairs": pairs, "recall": hits / pairs if pairs else None,
+            "visible": visible, "visible_hits": visible_hits,
+            "visible_recall": visible_hits / visible if visible else None,
             "centre_median": float(np.median(errors)) if errors else None,
             "centre_p90": float(np.percentile(errors, 90)) if errors else None,
             "clean_share": clean / len(det) if det else None,
@@ -169,23 +206,26 @@ def main() -> None:
     ap.add_argument("--match", type=float, default=0.3, help="m, match distance (default 0.3)")
     opts = ap.parse_args()
     opts.out.mkdir(parents=True, exist_ok=True)
-    total = {"pairs": 0, "hits": 0, "frames": 0, "clean": 0, "errors": []}
-    print(f"{'scenario':24} {'frames':>6} {'recall':>7} {'centre med/p90 (cm)':>20} "
-          f"{'no false obstacle':>18}  bars first seen at (m)")
+    total = {"pairs": 0, "hits": 0, "visible": 0, "visible_hits": 0, "frames": 0, "clean": 0,
+             "errors": []}
+    print(f"{'scenario':24} {'frames':>6} {'recall':>7} {'visible':>8} "
+          f"{'centre med/p90 (cm)':>20} {'no false obstacle':>18}  bars first seen at (m)")
     for name in opts.scenario or DEFAULT_SCENARIOS:
         s = score(*read(record(name, opts.out, opts.rerun)), opts)
-        for key in ("pairs", "hits", "frames", "clean"):
+        for key in ("pairs", "hits", "visible", "visible_hits", "frames", "clean"):
             total[key] += s[key]
         total["errors"] += s["errors"]
         bars = ", ".join(f"{k} {v:.2f}" for k, v in s["bar_first_seen"].items()) or "-"
         centre = f"{_fmt(s['centre_median'] and 100 * s['centre_median'], '.1f')} / " \
                  f"{_fmt(s['centre_p90'] and 100 * s['centre_p90'], '.1f')}"
-        print(f"{name:24} {s['frames']:6d} {_fmt(s['recall'], '7.3f')} {centre:>20} "
+        print(f"{name:24} {s['frames']:6d} {_fmt(s['recall'], '7.3f')} "
+              f"{_fmt(s['visible_recall'], '8.3f')} {centre:>20} "
               f"{_fmt(s['clean_share'], '18.3f')}  {bars}")
     e = total["errors"]
     print(f"{'all':24} {total['frames']:6d} "
           f"{_fmt(total['hits'] / total['pairs'] if total['pairs'] else None, '7.3f')} "
-          f"{_fmt(100 * float(np.median(e)) if e else None, '.1f'):>9} / "
+          f"{_fmt(total['visible_hits'] / total['visible'] if total['visible'] else None, '8.3f')}"
+          f" {_fmt(100 * float(np.median(e)) if e else None, '.2f'):>9} / "
           f"{_fmt(100 * float(np.percentile(e, 90)) if e else None, '.1f'):<8} "
           f"{_fmt(total['clean'] / total['frames'] if total['frames'] else None, '18.3f')}")
 
