@@ -184,6 +184,23 @@ def test_a_bar_that_rises_stops_being_a_wall_and_a_forgotten_one_starts_afresh()
     assert "b" not in walls._memory
 
 
+def test_with_a_judge_range_a_far_bar_is_judged_only_once_the_robot_is_near():
+    """Sensors: a bar's height measured from afar errs low; it is judged within range only."""
+    ranged = BarWalls.for_body(robot_body("a1"), A1_MIN_HEIGHT, QP_MARGIN, judge_range=1.0)
+    low = bar_set(0.25, x=2.5)  # too low by the rule; footprint x 2.45 .. 2.55
+    for x, walled in ((0.0, False), (1.40, False), (1.50, True), (2.0, True)):
+        walls = BarWalls.for_body(robot_body("a1"), A1_MIN_HEIGHT, QP_MARGIN, judge_range=1.0)
+        _, _, mask = convert(low, robot=(x, 0.0), walls=walls)
+        assert bool(mask.any()) is walled, x
+        _, _, mask = convert(low, robot=(x, 0.0))  # no range: walled from anywhere
+        assert mask.all(), x
+    # Tracked: far sightings are not remembered, the settling starts within range.
+    centre, half = np.array([[2.5, 0.0]]), (np.array([0.05]), np.array([2.0]))
+    assert ranged.out_of_range(np.array([0.0, 0.0]), centre, *half).tolist() == [True]
+    assert ranged.out_of_range(np.array([1.6, 0.0]), centre, *half).tolist() == [False]
+    assert ranged.out_of_range(np.array([2.5, 3.5]), centre, *half).tolist() == [True]
+
+
 def test_extents_of_a_tilted_ellipse():
     x_half, z_half = bar_extents(np.array([[0.3, 0.1]]), np.array([math.pi / 2]))
     assert x_half[0] == pytest.approx(0.1) and z_half[0] == pytest.approx(0.3)

@@ -1,5 +1,5 @@
-"""The tracker's parameters follow where obstacles come from: config/sensors/ is layered on
-config/<node>.yaml when the obstacle detector feeds the tracker (sensors, deploy)."""
+"""The tracker's and the filter's parameters follow where obstacles come from: config/sensors/
+is layered on config/<node>.yaml when the obstacle detector feeds them (sensors, deploy)."""
 
 from __future__ import annotations
 
@@ -20,7 +20,15 @@ def test_the_sensors_layer_comes_after_the_nodes_own_file():
     assert [p.name for p in oracle] == ["obstacle_tracker.yaml"]
     assert sensors[0] == oracle[0]
     assert sensors[1].parent.name == "sensors" and sensors[1].name == "obstacle_tracker.yaml"
-    assert config_files("safety_filter", "sensors") == config_files("safety_filter")
+    assert config_files("gait_controller", "sensors") == config_files("gait_controller")
+
+
+def test_with_sensors_the_filter_judges_bars_only_near_the_robot():
+    def merged(files):
+        return merged_parameters(NodeSpec(name="safety_filter", module="m", params_files=files))
+
+    assert merged(config_files("safety_filter"))["bar_wall_range"] == 0.0
+    assert merged(config_files("safety_filter", "sensors"))["bar_wall_range"] == 1.0
 
 
 def test_the_manoeuvre_detector_is_on_with_the_oracle_and_off_with_sensors():

@@ -101,12 +101,16 @@ class BarWalls:
     xy_offset: np.ndarray
     xy_radius: np.ndarray
     margin: float = 0.0
+    judge_range: float = 0.0
     _memory: dict = field(default_factory=dict, repr=False)  # id -> _BarMemory
 
     @classmethod
     def for_body(cls, body: RobotBody | None, min_height: float,
-                 margin: float = 0.0) -> BarWalls | None:
-        """The check for ``body`` (None for the single-point filter: the paper's, unchanged)."""
+                 margin: float = 0.0, judge_range: float = 0.0) -> BarWalls | None:
+        """The check for ``body`` (None for the single-point filter: the paper's, unchanged).
+
+        ``judge_range`` [m]: bars are judged only within it (:meth:`out_of_range`; 0: any).
+        """
         if body is None:
             return None
         xz = body.points_in(Plane.HORIZONTAL)
@@ -117,8 +121,24 @@ class BarWalls:
             float(min_height),
             np.array([p.offset[2] for p in xz]), np.array([p.radius for p in xz]),
             np.array([p.offset[:2] for p in xy]), np.array([p.radius for p in xy]),
-            float(margin),
+            float(margin), float(judge_range),
         )
+
+    def out_of_range(self, pos: np.ndarray, centre_xy: np.ndarray, x_half: np.ndarray,
+                     y_half: np.ndarray) -> np.ndarray:
+        """``(n,)`` mask: the base is farther than ``judge_range`` from the footprints.
+
+        Such bars are not judged yet: a range sensor measures a far bar's height least well
+        (the detector's underside errs low by up to one row of its 3-D sensor, a distance
+        times the row spacing), and walling a passable bar from afar holds the robot there for
+        good. They stay bars, kept from the body's x-z circles. All False when
+        ``judge_range`` is 0. Arguments as in :meth:`under` (``pos``: odom, m).
+        """
+        if self.judge_range <= 0.0:
+            return np.zeros(len(x_half), dtype=bool)
+        dx = np.maximum(np.abs(pos[0] - centre_xy[:, 0]) - x_half, 0.0)
+        dy = np.maximum(np.abs(pos[1] - centre_xy[:, 1]) - y_half, 0.0)
+        return np.hypot(dx, dy) > self.judge_range
 
     def deficit(
         self, bar_z: np.ndarray, bar_radius: np.ndarray, index: np.ndarray, n: int

@@ -331,6 +331,9 @@ def _walled(obstacles: ObstacleSet, c: np.ndarray, vertical: np.ndarray, walls: 
     grown = cover_r[bar] + 0.5 * robot_height + safety_margin + walls.margin
     deficit = walls.deficit(c[index[bar], 2] + offset[bar, 1], grown, index[bar],
                             len(obstacles))
+    far = walls.out_of_range(np.asarray(robot_xy), c[:, :2], obstacles.bar_footprints[0],
+                             0.5 * obstacles.extent)
+    deficit[far & ~vertical] = np.nan  # bars not judged yet: neither walled nor remembered
     walled = walls.decide(obstacles.ids, deficit, t)
     if walled.any():
         cand = np.flatnonzero(walled)

@@ -141,6 +141,14 @@ class FilterParams(TypedParams):
         "and grown by as much, so that dead-ahead obstacles are passed on the left instead of "
         "only braked for (see obstacle_input.to_c3bf_obstacles)", NON_NEGATIVE,
     )
+    bar_wall_range: float = param(
+        0.0, "m", "a bar is judged passable or not (and walled if not, safety/bar_walls.py) "
+        "only while the base is within this horizontal distance of its footprint; farther "
+        "it stays a bar the x-z barrier keeps the body from. A range sensor's bar height is "
+        "least certain far away (the obstacle detector's underside errs low by up to one row "
+        "of the 3-D sensor: 2 cm per metre); 0: at any distance (the oracle's noise does not "
+        "grow with it)", NON_NEGATIVE,
+    )
     steer_horizon: float = param(
         20.0, "s", "cone steering (whole-body model, unicycle): a reference heading whose path "
         "meets an obstacle within this time is turned to the nearest free heading before the QP "

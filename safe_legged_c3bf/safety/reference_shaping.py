@@ -44,7 +44,8 @@ class ReferenceShaping:
             params.steer_gain, cruise_memory=params.steer_cruise_memory,
         )
         self.escape = EscapeShaping.for_body(body, params.escape_horizon)
-        self.walls = BarWalls.for_body(body, params.min_height, qp_margin)
+        self.walls = BarWalls.for_body(body, params.min_height, qp_margin,
+                                       params.bar_wall_range)
 
     def shape(self, t: float, ref_arr: np.ndarray, circles, ids, walled: np.ndarray,  # noqa: ANN001
               pos: np.ndarray, yaw: float, vx_command: float) -> tuple[str, bool]:
