@@ -36,11 +36,11 @@ CONFIGS = (
     ("default, detection covariance", TrackerConfig(
         track=TrackConfig(use_detection_covariance=True))),
     ("no manoeuvre detector", TrackerConfig(track=TrackConfig(maneuver_detection=False))),
-    ("sensors (config/sensors)", TrackerConfig(track=TrackConfig(
-        maneuver_detection=False, accel_psd=1e-3, velocity_min_hits=10))),
-    ("sensors with 5 hits (session 15)", TrackerConfig(
+    ("sensors (config/sensors)", TrackerConfig(
         track=TrackConfig(maneuver_detection=False, accel_psd=1e-3))),
-    ("sensors 5 hits, detection covariance", TrackerConfig(track=TrackConfig(
+    ("sensors, velocity after 10 hits", TrackerConfig(track=TrackConfig(
+        maneuver_detection=False, accel_psd=1e-3, velocity_min_hits=10))),
+    ("sensors, detection covariance", TrackerConfig(track=TrackConfig(
         maneuver_detection=False, accel_psd=1e-3, use_detection_covariance=True))),
 )
 FAST = 0.2  # m/s: a speed counted as "looks like it moves"

@@ -36,8 +36,6 @@ def test_the_manoeuvre_detector_is_on_with_the_oracle_and_off_with_sensors():
     sensors = _tracker(config_files("obstacle_tracker", "sensors"))
     assert oracle["maneuver_detection"] is True and oracle["accel_psd"] == 0.0001
     assert sensors["maneuver_detection"] is False and sensors["accel_psd"] == 0.001
-    # A detector's young tracks need twice the hits before their velocity counts.
-    assert oracle["velocity_min_hits"] == 5 and sensors["velocity_min_hits"] == 10
 
 
 def test_a_sensors_run_and_deploy_mode_give_the_tracker_the_sensors_layer(tmp_path):
