@@ -34,8 +34,9 @@ Covariances (m^2, odom x y z): for a circle, the Gauss-Newton covariance of its 
 the other fits, the standard error of the points' mean per principal axis plus, along the
 viewing direction, (depth / 4)^2 for the mirrored far side, and along a wall piece's axis
 (max_piece_length / 4)^2 for each end where the returns stop instead of a cut (its centre
-moves as more of the wall comes into view). ``position_std^2`` is added to every axis. The tracker
-weighs each detection by it, so that such moves do not become speeds.
+moves as more of the wall comes into view). ``position_std^2`` is added to every axis. The
+tracker can weigh each detection by it (``TrackConfig.use_detection_covariance``, off: it
+measured no gain).
 """
 
 from __future__ import annotations

@@ -98,7 +98,8 @@ class Detection:
         ``(3, 3)`` covariance of ``center`` (m^2, odom) as the detector reports it, or
         ``None`` (unknown: ``TrackConfig.measurement_std`` is used).  A detector knows which
         directions it measures poorly (the unseen far side of a cluster, the open end of a
-        wall piece); the track's filter weighs the detection by it.
+        wall piece); with ``TrackConfig.use_detection_covariance`` the track's filter
+        weighs the detection by it.
 
     """
 
