@@ -27,7 +27,8 @@ from pathlib import Path
 import numpy as np
 from detector_quality import read_messages  # the same folder: benchmarks/
 
-from safe_legged_c3bf.perception.track import Detection, ObstaclePlane, TrackConfig, plane_axes
+from safe_legged_c3bf.nodes.obstacle_tracker_node import detections_from_msg
+from safe_legged_c3bf.perception.track import ObstaclePlane, TrackConfig, plane_axes
 from safe_legged_c3bf.perception.tracker import MultiObstacleTracker, TrackerConfig
 
 #: Configurations compared (label, tracker config).
@@ -47,24 +48,18 @@ FAST = 0.2  # m/s: a speed counted as "looks like it moves"
 
 
 def load(path: Path) -> tuple[list, list]:
-    """``(ground truth, detections)``: lists of (t in s, obstacles) from a recording."""
+    """``(ground truth, detections)`` from a recording: (t in s, obstacles) per ground-truth
+    message, (t in s, ObstacleArray) per detection message."""
     from safe_legged_c3bf.interfaces import topics
 
     truth, detections = topics.GROUND_TRUTH_OBSTACLES.name, topics.OBSTACLE_DETECTIONS.name
     names = read_messages(path, [truth, detections])
 
-    def frames(msgs: list) -> list:
-        return [(m.header.stamp.sec + m.header.stamp.nanosec * 1e-9, m.obstacles) for m in msgs]
+    def stamp(m) -> float:  # noqa: ANN001 - a message with a header
+        return m.header.stamp.sec + m.header.stamp.nanosec * 1e-9
 
-    return frames(names[truth]), frames(names[detections])
-
-
-def _detection(o) -> Detection:  # noqa: ANN001 - safe_legged_c3bf_msgs/Obstacle
-    return Detection(
-        np.array([o.center.x, o.center.y, o.center.z]), (o.semi_axis_a, o.semi_axis_b),
-        plane=ObstaclePlane(o.plane), orientation=o.orientation, extent=o.extent,
-        position_covariance=np.asarray(o.position_covariance, dtype=float).reshape(3, 3),
-    )
+    return ([(stamp(m), m.obstacles) for m in names[truth]],
+            [(stamp(m), m) for m in names[detections]])
 
 
 def _distance(truth, center: np.ndarray) -> float:  # noqa: ANN001 - Obstacle message
@@ -81,8 +76,8 @@ def track_speeds(gt: list, det: list, config: TrackerConfig) -> tuple[np.ndarray
     """
     tracker = MultiObstacleTracker(config)
     speeds, errors, k = [], [], 0
-    for t, obstacles in det:
-        tracker.update([_detection(o) for o in obstacles], t)
+    for t, message in det:
+        tracker.update(detections_from_msg(message), t)
         while k + 1 < len(gt) and gt[k + 1][0] <= t:
             k += 1
         truths = gt[k][1]
