@@ -23,6 +23,7 @@ from safe_legged_c3bf.c3bf import (
     c3bf_lie_derivatives,
 )
 from safe_legged_c3bf.c3bf import osqp_qp as qp_mod
+from safe_legged_c3bf.c3bf.dense_relaxed_qp import DenseRelaxedQPs
 from safe_legged_c3bf.c3bf.domain import REF_RATIO_MAX
 from safe_legged_c3bf.c3bf.inside import radial_terms
 from safe_legged_c3bf.c3bf.lie import PLANE_AXES
@@ -284,6 +285,8 @@ def test_clearance_is_reported_with_every_status(monkeypatch):
     r = tight.filter(x, [1.0, 0.0], obs, yaw=0.0)
     assert r.status is FilterStatus.RELAXED
     np.testing.assert_allclose(r.clearance, expected, atol=1e-12)
+    # the dense relaxed QP finds no optimum -> OSQP's relaxed QP, which fails -> FAILSAFE
+    monkeypatch.setattr(DenseRelaxedQPs, "solve", lambda self, *a: None)
     monkeypatch.setattr(qp_mod.RelaxedQP, "solve", lambda self, *a: (np.zeros(2), 9))
     r = tight.filter(x, [1.0, 0.0], obs, yaw=0.0)
     assert r.status is FilterStatus.FAILSAFE and "non-convex" in r.message

@@ -34,7 +34,9 @@ Solution strategy (every path returns the exact optimum of that problem, or says
    are relative to ``|q| = |W u_ref|``; the closed form and active-set answers to rounding.
 5. Infeasible (some constraint cannot hold within the limits: a Farkas certificate, or OSQP
    reports primal infeasibility): a relaxed QP with one non-negative slack ``d_i`` per constraint,
-   ``a_i u + d_i >= b_i``, cost ``+ rho (sum d_i^2 + sum d_i)``: ``RELAXED``.
+   ``a_i u + d_i >= b_i``, cost ``+ rho (sum d_i^2 + sum d_i)``: ``RELAXED``. With
+   ``method='auto'`` DAQP solves it exactly (``dense_relaxed_qp``; ``'active_set'``), OSQP if
+   DAQP finds no optimum; with ``method='qp'`` OSQP.
 6. Body point inside an inflated circle (``||p_rel||^2 - r^2 < 1e-9 r^2``): ``EMERGENCY``.
    Leaving every such circle: steps 1-5 with their cone rows replaced by the no-deeper rows
    of the radial speed (``inside``); otherwise brake and accelerate away from the centres.
@@ -80,6 +82,7 @@ from .body import RobotBody
 from .body_rows import body_rows, per_obstacle
 from .closed_form import cbf_closed_form
 from .dense_qp import DAQP_INF, DenseQPs
+from .dense_relaxed_qp import DenseRelaxedQPs
 from .domain import REF_RATIO_MAX, checked_scalar, far_reference_error
 from .errors import InvalidInputError
 from .fast_path import fast_filter, one_row
@@ -196,6 +199,7 @@ class SafetyFilter:
         self.exit_speed = checked_scalar("exit_speed", exit_speed, 0.0)
         self._qp = QPSolvers(w, relax_penalty, osqp_settings)
         self._dense = DenseQPs(w)  # DAQP workspaces (warm started), one per row count
+        self._dense_relaxed = DenseRelaxedQPs(w, self._qp.rho)  # step 5 on DAQP
         if body is not None and not isinstance(body, RobotBody):
             raise InvalidInputError("body must be a RobotBody or None")
         self.body = body
@@ -273,6 +277,7 @@ class SafetyFilter:
         """Drop the cached OSQP and DAQP solvers (warm starts restart from scratch)."""
         self._qp.clear()
         self._dense.clear()
+        self._dense_relaxed.clear()
         self._point = None
 
     def _point_rows(self, obs: Obstacles) -> PointRows:
@@ -396,6 +401,11 @@ class SafetyFilter:
                         )
                 if not infeasible:
                     msg = f"hard QP not solved to tolerance ({words}): relaxed QP used"
+        if self.method == "auto":  # the exact dense solve; OSQP if it finds no optimum
+            u = self._dense_relaxed.solve(u0, Gn, lo_rows, lo_b, hi_b)
+            if u is not None:
+                return make_result(u, FilterStatus.RELAXED, terms, G, c0, cur, "active_set", t0,
+                                   msg)
         u, st = self._qp.solve_relaxed(n, Gn, lo_rows, lo_b, hi_b, q)
         if u is None:
             return self._failsafe(
