@@ -106,7 +106,7 @@ class CycleOutput:
 
 
 def _sat(x: float, limit: float) -> float:
-    return max(-limit, min(limit, x))
+    return max(-limit, min(limit, float(x)))  # (float: numpy scalars compare slowly)
 
 
 def _toward_zero(x: float, step: float) -> float:

@@ -28,14 +28,19 @@ def first_contact_times(vel, p, w, radius, horizon: float) -> np.ndarray:
     separates (the QP's inside handling answers it).
 
     """
-    v_rel = w[None, :, :] - vel[:, None, :]  # (k, m, 2)
-    vv = (v_rel * v_rel).sum(-1)
-    pv = (p[None] * v_rel).sum(-1)
+    # Components apart: no (k, m, 2) temporaries (the cone steering and the escape call this
+    # several times per filter cycle). Same arithmetic, in the same order, as the vector form.
+    vx = w[:, 0] - vel[:, 0, None]  # (k, m) relative velocity
+    vy = w[:, 1] - vel[:, 1, None]
+    vv = vx * vx + vy * vy
+    pv = p[:, 0] * vx + p[:, 1] * vy
     gap = (p * p).sum(-1) - radius**2  # (m,)
-    disc = pv * pv - vv * gap[None]
-    approaching = (pv < 0.0) & (disc >= 0.0) & (vv > 1e-12)
+    disc = pv * pv - vv * gap
+    moving = vv > 1e-12
+    closing = pv < 0.0
+    approaching = closing & (disc >= 0.0) & moving
     root = np.sqrt(np.maximum(disc, 0.0))
-    t = np.where(approaching, (-pv - root) / np.where(vv > 1e-12, vv, 1.0), np.inf)
-    t = np.where(gap[None] <= 0.0, np.where(pv < 0.0, 0.0, np.inf), t)
-    t = np.where(t <= horizon, t, np.inf)
+    t = np.where(approaching, (-pv - root) / np.where(moving, vv, 1.0), np.inf)
+    t = np.where(gap <= 0.0, np.where(closing, 0.0, np.inf), t)
+    t[~(t <= horizon)] = np.inf  # (NaN too)
     return t.min(axis=1) if t.shape[1] else np.full(len(vel), np.inf)
