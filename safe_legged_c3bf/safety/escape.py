@@ -110,14 +110,12 @@ class EscapeShaping:
         pair_w = np.broadcast_to(w[None], rel.shape).reshape(-1, 2)
         pair_r = (np.asarray(radii, dtype=float)[None] + self._radii[:, None]).reshape(-1)
         p = rel.reshape(-1, 2)
-        if math.isinf(first_contact_times(np.zeros((1, 2)), p, pair_w, pair_r,
-                                          self.horizon)[0]):
-            return None
         forward, reverse, lateral = limits
-        wanted = np.array([[min(max(ref[0], -reverse), forward),
-                            min(max(ref[1], -lateral), lateral)]])
-        if math.isinf(first_contact_times(wanted @ rot.T, p, pair_w, pair_r, self.horizon)[0]):
-            return None  # the reference's own path stays clear: nothing to escape
+        wanted = np.array([[0.0, 0.0], [min(max(ref[0], -reverse), forward),
+                                        min(max(ref[1], -lateral), lateral)]])
+        standing, going = first_contact_times(wanted @ rot.T, p, pair_w, pair_r, self.horizon)
+        if math.isinf(standing) or math.isinf(going):
+            return None  # standing still is safe, or the reference's own path stays clear
         body = self._candidates(forward, reverse, lateral)
         world = body @ rot.T
         times = first_contact_times(world, p, pair_w, pair_r, self.horizon)
