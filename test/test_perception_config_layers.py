@@ -31,23 +31,26 @@ def test_with_sensors_the_filter_judges_bars_only_near_the_robot():
     assert merged(config_files("safety_filter", "sensors"))["bar_wall_range"] == 1.0
 
 
-def test_the_manoeuvre_detector_is_on_with_the_oracle_and_off_with_sensors():
+def test_the_manoeuvre_detector_is_on_for_both_sources():
+    """On with sensors too since session 17 (config/sensors/obstacle_tracker.yaml says why)."""
     oracle = _tracker(config_files("obstacle_tracker"))
     sensors = _tracker(config_files("obstacle_tracker", "sensors"))
     assert oracle["maneuver_detection"] is True and oracle["accel_psd"] == 0.0001
-    assert sensors["maneuver_detection"] is False and sensors["accel_psd"] == 0.001
+    assert sensors["maneuver_detection"] is True and sensors["accel_psd"] == 0.0001
 
 
-def test_a_sensors_run_and_deploy_mode_give_the_tracker_the_sensors_layer(tmp_path):
+def test_a_sensors_run_and_deploy_mode_give_the_nodes_the_sensors_layer(tmp_path):
     sensors = make_plan(build_parser().parse_args(
-        ["--perception", "sensors", "--out", str(tmp_path / "s")])).spec("obstacle_tracker")
-    oracle = make_plan(build_parser().parse_args(
-        ["--out", str(tmp_path / "o")])).spec("obstacle_tracker")
-    deploy = next(s for s in deploy_specs(build_parser().parse_args(["--deploy"]))
-                  if s.name == "obstacle_tracker")
-    assert merged_parameters(sensors)["maneuver_detection"] is False
-    assert merged_parameters(deploy)["maneuver_detection"] is False
-    assert merged_parameters(oracle)["maneuver_detection"] is True
+        ["--perception", "sensors", "--out", str(tmp_path / "s")]))
+    oracle = make_plan(build_parser().parse_args(["--out", str(tmp_path / "o")]))
+    deploy = {s.name: s for s in deploy_specs(build_parser().parse_args(["--deploy"]))}
+    layer = config_files("obstacle_tracker", "sensors")[-1]
+    assert layer in sensors.spec("obstacle_tracker").params_files
+    assert layer in deploy["obstacle_tracker"].params_files
+    assert layer not in oracle.spec("obstacle_tracker").params_files
+    assert merged_parameters(sensors.spec("safety_filter"))["bar_wall_range"] == 1.0
+    assert merged_parameters(deploy["safety_filter"])["bar_wall_range"] == 1.0
+    assert merged_parameters(oracle.spec("safety_filter"))["bar_wall_range"] == 0.0
 
 
 def test_a_replays_params_files_reach_the_pipeline_built_in_process(tmp_path):
@@ -55,11 +58,11 @@ def test_a_replays_params_files_reach_the_pipeline_built_in_process(tmp_path):
     from safe_legged_c3bf.replay.run import pipeline_parameters
 
     mine = tmp_path / "mine.yaml"
-    mine.write_text("obstacle_tracker:\n  ros__parameters:\n    maneuver_detection: true\n"
+    mine.write_text("obstacle_tracker:\n  ros__parameters:\n    maneuver_detection: false\n"
                     "obstacle_detector:\n  ros__parameters:\n    cloud_row_spacing: 0.045\n")
     _, merged = pipeline_parameters("quadruped", [mine])
-    assert merged["obstacle_tracker"]["maneuver_detection"] is True
+    assert merged["obstacle_tracker"]["maneuver_detection"] is False
     assert merged["obstacle_detector"]["cloud_row_spacing"] == 0.045
     _, plain = pipeline_parameters("quadruped")
-    assert plain["obstacle_tracker"]["maneuver_detection"] is False
+    assert plain["obstacle_tracker"]["maneuver_detection"] is True
     assert plain["obstacle_detector"]["cloud_row_spacing"] != 0.045

@@ -3,12 +3,13 @@ into the safety pipeline without the simulator, and the filter is scored against
 
 The recording (test/data/replay_walker.mcap, made by test/data/make_replay_recording.py): the
 A1 walks a free path beside a standing walker, which at t = 6 s starts to cross its path. The
-KPIs are printed (run pytest with -s to see them). Known shortfalls are strict expected
-failures: with the detector's output the tracker runs without its manoeuvre detector
-(config/sensors/obstacle_tracker.yaml says why) and needs ~0.65 s to estimate the velocity of
-the walker once it starts, so the filter's reaction to the cone entry (~0.65 s) and the
-filtered command's exit from the true cone (~2.6 s) are slower than their limits (issue #19;
-with the manoeuvre detector on: 0.46 s and 0.72 s).
+KPIs are printed (run pytest with -s to see them). Known shortfalls are expected failures
+(issue #19): the tracker's manoeuvre detector (on with sensors since session 17) estimates
+the walker's velocity ~0.3 s after three detections at 10 Hz show it moving, so the filter
+acts 0.43-0.49 s after the cone entry (strict; 0.65-0.81 s with the detector off); the
+filtered command's exit from the true cone was at the 3 s horizon in 8 of 10 replays (0.62
+and 0.73 s in the others): a replay is paced in real time and not repeatable to the cycle, so
+that one is not strict.
 """
 
 from __future__ import annotations
@@ -57,15 +58,16 @@ def test_every_cone_entry_is_answered_and_the_free_path_is_left_alone(replayed):
     assert rep.false_intervention_share <= KpiLimits().false_intervention_share
 
 
-@pytest.mark.xfail(strict=True, reason="#19: the tracker (manoeuvre detector off with sensors) "
-                   "needs ~0.65 s to estimate the velocity of a walker that starts moving; the "
-                   "filter acts after it")
+@pytest.mark.xfail(strict=True, reason="#19: the tracker's manoeuvre detector needs three "
+                   "detections (0.3 s at 10 Hz) after a walker starts to see it moving; the "
+                   "filter acts ~0.45 s after the cone entry")
 def test_reaction_to_a_cone_entry_within_its_limit(replayed):
     assert max(replayed.report.reaction) <= KpiLimits().reaction
 
 
-@pytest.mark.xfail(strict=True, reason="#19: with the walker's velocity estimated late, the "
-                   "filtered command leaves the true collision cone ~2.6 s after the entry")
+@pytest.mark.xfail(strict=False, reason="#19: the filtered command leaves the true collision "
+                   "cone at the 3 s horizon in 8 of 10 replays (0.62 s at best); not "
+                   "strict: real-time pacing makes replays differ")
 def test_filtered_command_leaves_the_cone_within_its_limit(replayed):
     assert max(replayed.report.cone_exit) <= KpiLimits().cone_exit
 
