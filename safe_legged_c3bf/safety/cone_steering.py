@@ -153,12 +153,15 @@ class ConeSteering:
             self.detour.reset_stall()
             return Steer(vx_ref, wz_ref, 0, True)
         psi_ref = yaw + wz_ref * self.lookahead
-        yaw_blocked, ref_blocked = blocked_headings(np.array([yaw, psi_ref]), vx_ref, p, w, r,
-                                                    self.horizon)
+        # The yaw, the reference heading and the scan around the yaw in one call (the scan
+        # is what a free yaw needs next; each heading's answer is its own row).
+        scan = blocked_headings(np.concatenate([[yaw, psi_ref], yaw + self._both]), vx_ref,
+                                p, w, r, self.horizon)
+        yaw_blocked, ref_blocked = scan[0], scan[1]
         if not yaw_blocked:
             self.detour.reset_stall()
-            out = self._within_free_interval(yaw, psi_ref, vx_ref, wz_ref, p, w, r,
-                                             max_yaw_rate)
+            out = self._within_free_interval(yaw, psi_ref, vx_ref, wz_ref, max_yaw_rate,
+                                             scan[2:])
             if out.side == 0:
                 return out
             return Steer(max(vx_ref, cruise), out.yaw_rate, out.side, True)
@@ -224,16 +227,16 @@ class ConeSteering:
             asked.popleft()
         return asked[0][1]
 
-    def _within_free_interval(self, yaw, psi_ref, vx_ref, wz_ref, p, w, r, max_yaw_rate):
+    def _within_free_interval(self, yaw, psi_ref, vx_ref, wz_ref, max_yaw_rate, both):
         """From a free heading: the reference turn, kept inside the free headings around it.
 
         The free interval is scanned from the yaw to each side up to the first blocked
         heading; a reference heading beyond it (or on its far side) is clamped one
         ``heading_step`` inside its edge, so the robot follows the cone's edge instead of
-        turning into the cone and being braked there.
+        turning into the cone and being braked there. ``both``: whether the headings
+        ``yaw + self._both`` are blocked at ``vx_ref``.
         """
         edges = []
-        both = blocked_headings(yaw + self._both, vx_ref, p, w, r, self.horizon)
         for offsets, blocked in ((self._left, both[:self._n]), (self._right, both[self._n:])):
             k = int(np.argmax(blocked)) if blocked.any() else len(offsets)
             k -= EDGE_STEPS  # keep off the cone's edge, where every row's h is 0

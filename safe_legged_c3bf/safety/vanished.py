@@ -57,13 +57,14 @@ class VanishWatch:
 
     def observe(self, t: float, ids: Iterable[str], circles: Obstacles) -> None:
         """Record the circles the filter used at ``t`` (``ids`` in ``circles`` order)."""
-        center, velocity, radius = circles.center, circles.velocity, circles.radius
+        center = np.asarray(circles.center, dtype=float)[:, :2].tolist()  # floats at once
+        velocity = np.asarray(circles.velocity, dtype=float)[:, :2].tolist()
+        radius = np.asarray(circles.radius, dtype=float).tolist()
         plane = np.asarray(circles.plane).tolist()
         for k, obstacle_id in enumerate(ids):
             if obstacle_id:
                 self._seen[obstacle_id] = Sighting(
-                    t, (float(center[k, 0]), float(center[k, 1])),
-                    (float(velocity[k, 0]), float(velocity[k, 1])), float(radius[k]), plane[k],
+                    t, tuple(center[k]), tuple(velocity[k]), radius[k], plane[k],
                 )
 
     def check(
