@@ -74,7 +74,8 @@ def per_obstacle(res: FilterResult, rows: BodyRows, n: int) -> FilterResult:
         res.h, res.constraint, res.slack, res.clearance = zeros, zeros, zeros, zeros
         res.active, res.point = np.zeros(n, dtype=bool), np.full(n, -1)
         return res
-    starts = np.flatnonzero(np.r_[True, rows.obstacle[1:] != rows.obstacle[:-1]])
+    ob = rows.obstacle
+    starts = np.concatenate(([0], np.flatnonzero(ob[1:] != ob[:-1]) + 1))  # (np.r_ is slow)
     # Rows sorted by obstacle, then clearance (stable): each group's first is its nearest.
     nearest = np.lexsort((res.clearance, rows.obstacle))[starts]
     res.point = rows.point[nearest]
