@@ -282,6 +282,7 @@ def test_infeasible_qp_is_relaxed_and_flagged(driver):
         state = driver.step(t, robot, [obstacle_msg(wall, t)], twist(0.8))
     assert state.status == S.RELAXED
     assert max(state.slack) > 0
+    assert driver.filter.last_status_name() == "RELAXED"  # what the latency benchmark reads
 
 
 def test_pass_through_when_disabled_at_run_time(driver):

@@ -107,6 +107,10 @@ class SafetyFilterNode(Node):
         self.create_timer(1.0, self._publish_diagnostics)
         self._last_output: CycleOutput | None = None
 
+    def last_status_name(self) -> str:
+        """Status of the last cycle (``CycleStatus`` name), "" before the first."""
+        return "" if self._last_output is None else self._last_output.status.name
+
     # -- parameters ---------------------------------------------------------------------------
     def _apply_params(self, old: FilterParams, new: FilterParams, names: frozenset[str]) -> None:
         """Use validated new parameters: the cycle's, the stamp gates and the timer's rate."""
