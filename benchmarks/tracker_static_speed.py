@@ -31,17 +31,19 @@ from safe_legged_c3bf.nodes.obstacle_tracker_node import detections_from_msg
 from safe_legged_c3bf.perception.track import ObstaclePlane, TrackConfig, plane_axes
 from safe_legged_c3bf.perception.tracker import MultiObstacleTracker, TrackerConfig
 
-#: Configurations compared (label, tracker config).
+#: Configurations compared (label, tracker config). "s10-16": the sensors configuration of
+#: sessions 10 to 16 (manoeuvre detector off, accel_psd 1e-3); since session 17 sensors use
+#: the default.
 CONFIGS = (
-    ("default", TrackerConfig()),
+    ("default (also sensors, s17)", TrackerConfig()),
     ("default, detection covariance", TrackerConfig(
         track=TrackConfig(use_detection_covariance=True))),
     ("no manoeuvre detector", TrackerConfig(track=TrackConfig(maneuver_detection=False))),
-    ("sensors (config/sensors)", TrackerConfig(
+    ("sensors s10-16 (no manoeuvre)", TrackerConfig(
         track=TrackConfig(maneuver_detection=False, accel_psd=1e-3))),
-    ("sensors, velocity after 10 hits", TrackerConfig(track=TrackConfig(
+    ("s10-16, velocity after 10 hits", TrackerConfig(track=TrackConfig(
         maneuver_detection=False, accel_psd=1e-3, velocity_min_hits=10))),
-    ("sensors, detection covariance", TrackerConfig(track=TrackConfig(
+    ("s10-16, detection covariance", TrackerConfig(track=TrackConfig(
         maneuver_detection=False, accel_psd=1e-3, use_detection_covariance=True))),
 )
 FAST = 0.2  # m/s: a speed counted as "looks like it moves"
