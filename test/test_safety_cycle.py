@@ -345,13 +345,21 @@ def test_whole_body_steers_past_a_pillar_dead_ahead_from_rest(lateral):
     assert any("steering" in out.text for _, out, *_ in log)
 
 
-@BODY_MODELS
-def test_deadlock_of_a_blocked_turn_in_place_is_resolved(body_model, request):
-    known_body_failure(request, body_model, "#16: the body model has no deadlock turn; "
-                       "between three obstacles the steering alone does not get it out")
-    log, robot = _between_three_obstacles(0.0, body_model)
+def test_deadlock_of_a_blocked_turn_in_place_is_resolved():
+    """The single point's deadlock turn (the whole body has none: next test)."""
+    log, robot = _between_three_obstacles(0.0, "point")
     assert math.hypot(robot.x - 0.62, robot.y - 3.24) < 0.05  # stood still for 30 s
-    log, robot = _between_three_obstacles(0.5, body_model)
+    log, robot = _between_three_obstacles(0.5, "point")
     assert math.hypot(robot.x + 1.03, robot.y - 6.35) < 0.3, (robot.x, robot.y)
     assert min_gap(log) > 0.0
     assert any("deadlock" in out.text for _, out, *_ in log)
+
+
+@pytest.mark.xfail(strict=True, reason="#16: with the plain unicycle (no side-step) a RELAXED "
+                   "spell, then the EMERGENCY back-out while turning, bring the front body "
+                   "circle ~1 mm into the stopped mover's circle")
+def test_whole_body_leaves_three_obstacles_without_a_deadlock_turn():
+    """The whole body steers out of the same spot (no deadlock turn) and never touches."""
+    log, robot = _between_three_obstacles(0.0, "body")
+    assert math.hypot(robot.x + 1.03, robot.y - 6.35) < 0.3, (robot.x, robot.y)
+    assert min_gap(log) > 0.0
