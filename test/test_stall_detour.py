@@ -139,3 +139,75 @@ def test_a_standstill_among_static_obstacles_detours_one_among_movers_waits(spee
         assert outs[-1].vx < 0.0  # the free headings are behind: it backs out
     else:
         assert not outs[-1].free  # held by movers: the QP brakes, the robot waits
+
+
+@pytest.mark.parametrize(("pillar_speed", "robot_speed", "detour"),
+                         [(0.0, 0.0, True), (0.3, 0.0, False), (0.0, 0.2, False)])
+def test_a_standoff_detours_after_its_time_unless_walking_or_held_by_a_mover(
+        pillar_speed, robot_speed, detour):
+    """The planner creeps (2 cm/s, its momentary speed makes every heading look free) at a
+    pillar 1 m ahead while the robot stands and its yaw swings to and fro (+-0.3 rad, 2 s): a
+    detour after ``STANDOFF_TIME``; none while the robot walks, none for a mover, none for a
+    robot that only turns one way (a long turn towards a free heading)."""
+    from safe_legged_c3bf.safety.cone_steering import ConeSteering
+
+    pillar = ([[1.0, 0.0]], [[0.0, pillar_speed]], [0.3])
+
+    def first_detour(yaw):  # noqa: ANN001, ANN202
+        s = ConeSteering(20.0, 0.2, 0.5, 1.5, cruise_memory=30.0)
+        s.steer(0.0, (0, 0), 0.0, 0.4, 0.0, *pillar, 1.0, speed=robot_speed)  # cruise 0.4
+        outs = [s.steer(0.1 * k, (0, 0), yaw(0.1 * k), 0.02, 0.0, *pillar, 1.0,
+                        speed=robot_speed) for k in range(1, 101)]
+        return next((0.1 * k for k, o in enumerate(outs, 1) if o.detour), None), outs[-1]
+
+    start, last = first_detour(lambda t: 0.3 * math.sin(math.pi * t))
+    if detour:
+        assert start is not None and start >= stall_detour.STANDOFF_TIME
+        assert last.side != 0 and last.detour
+    else:
+        assert start is None
+    assert first_detour(lambda t: 0.1 * t)[0] is None  # one way only: no standoff
+
+
+def _biped_standoff(standoff_time: float, monkeypatch) -> float:
+    """Random biped seed 4 at t = 18 s, in the unit harness (biped profile, first-order robot):
+    stood between two pillars and two stopped walkers, its goal 2.6 m away behind them.
+    Returns the time [s] the goal is reached (inf: not in 40 s)."""
+    from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand as Command
+    from safe_legged_c3bf.planning.reference_planner import (
+        PlannerConfig,
+        ReferencePlanner,
+        RobotPose,
+    )
+    from safe_legged_c3bf.run.parameters import robot_profile
+
+    monkeypatch.setattr(stall_detour, "STANDOFF_TIME", standoff_time)
+    cycle = SafetyFilterCycle(FilterParams(**robot_profile("biped")["safety_filter"]))
+    obstacles = [ObstacleInput(name, 0, np.array([x, y, 0.8]), np.zeros(3), np.array([a, b]),
+                               1.6, 0.0)
+                 for name, x, y, a, b in [("pillar_0", -0.86, -0.882, 0.227, 0.205),
+                                          ("pillar_1", -1.423, -1.973, 0.232, 0.197),
+                                          ("walker_2", -0.439, -2.442, 0.216, 0.192),
+                                          ("walker_3", -1.206, -1.01, 0.153, 0.118)]]
+    planner = ReferencePlanner(PlannerConfig(mode="goal", max_vx=0.2, z_nominal=0.82))
+    goal = np.array([-2.193, -2.84])
+    planner.set_goal(*goal)
+    robot = SimpleRobot(x=-0.25, y=-1.6, yaw=math.radians(-118.0), z=0.81, tau=0.3,
+                        holonomic=True)
+    for k in range(int(40.0 * RATE)):
+        t = k * DT
+        ref = planner.compute(RobotPose(robot.x, robot.y, robot.yaw, robot.z), t)
+        out = cycle.step(t, Command(ref.vx, ref.vy, 0.0, ref.yaw_rate), t,
+                         robot.base_state(t), obstacles, t)
+        for _ in range(5):
+            robot.step(out.command, DT / 5)
+        if np.hypot(*(goal - (robot.x, robot.y))) < 0.3:
+            return t
+    return math.inf
+
+
+def test_a_standoff_between_pillars_and_stopped_walkers_is_left_sooner(monkeypatch):
+    """Turning to and fro (the steering left, the planner back right) ends in a detour."""
+    with_detour = _biped_standoff(stall_detour.STANDOFF_TIME, monkeypatch)
+    without = _biped_standoff(math.inf, monkeypatch)
+    assert with_detour < without - 5.0, (with_detour, without)

@@ -27,6 +27,10 @@ reference that asks to walk forward, its forward speed is at least the planner's
 speed, the largest forward speed the reference asked for in the last ``cruise_memory`` s
 (scaled by the cosine of the heading error while turning towards the free heading). It never
 exceeds what the planner itself asked for in that window; the QP filters the result.
+
+Out of a standstill: with no free heading (``stall_detour``), or in a standoff, the robot
+turning to and fro in place between the steering's free heading and the planner's blocked
+one (``ConeSteering._standoff``), a committed detour round the blocked headings.
 """
 
 from __future__ import annotations
@@ -37,6 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from safe_legged_c3bf.safety import stall_detour
 from safe_legged_c3bf.safety.stall_detour import (
     SWITCH_MARGIN,
     StallDetour,
@@ -104,6 +109,32 @@ def blocked_headings(psi, speed, p, w, radius, horizon) -> np.ndarray:
     return np.isfinite(first_contact_times(speed * d, p, w, radius, horizon))
 
 
+STANDOFF_REVERSALS = 2
+"""Turns back of the yaw (left, right, left) that make a long standstill a standoff."""
+SWING = math.radians(10.0)
+"""Least turn [rad] of the yaw away from its last extreme that counts as a turn back."""
+
+
+class _Swing:
+    """Counts the yaw's reversals: turns back by at least ``SWING`` from its last extreme."""
+
+    def __init__(self) -> None:
+        self.reversals, self._extreme, self._direction = 0, None, 0
+
+    def note(self, yaw: float) -> None:
+        """Take this cycle's yaw [rad]."""
+        if self._extreme is None:
+            self._extreme = yaw
+            return
+        change = math.remainder(yaw - self._extreme, math.tau)
+        if self._direction * change > 0.0:
+            self._extreme = yaw  # further the same way: a new extreme
+        elif abs(change) >= SWING:
+            self.reversals += self._direction != 0  # the first turn is no reversal
+            self._direction = 1 if change > 0.0 else -1
+            self._extreme = yaw
+
+
 class ConeSteering:
     """Shapes a unicycle's reference (see the module docstring); keeps the chosen side."""
 
@@ -127,6 +158,8 @@ class ConeSteering:
         self._both, self._n = np.concatenate([offsets, -offsets]), n  # one scan, both sides
         self._side, self._side_time = 0, -math.inf
         self.detour = StallDetour(heading_step, heading_gain, START_SPEED, EDGE_STEPS)
+        self._standoff_since: float | None = None  # s: stood while the planner asks to move
+        self._swing = _Swing()  # the yaw's turns to and fro during that standstill
 
     def steer(self, t: float, pos, yaw: float, vx_ref: float, wz_ref: float,
               centers, velocities, radii, max_yaw_rate: float, speed: float = 0.0) -> Steer:
@@ -147,6 +180,9 @@ class ConeSteering:
             return blocked_headings(psi, max(cruise, 1e-3), p, w, r, self.horizon)
 
         detour = self._detour_step(t, yaw, speed, cruise, vx_ref, wz_ref, max_yaw_rate, blocked)
+        if detour is None:
+            detour = self._standoff(t, yaw, speed, cruise, vx_ref, wz_ref, max_yaw_rate,
+                                    blocked, (p, w, r))
         if detour is not None:
             return detour
         if vx_ref <= 1e-3:
@@ -197,6 +233,49 @@ class ConeSteering:
             return None
         self._side, self._side_time = out[2], t
         return Steer(*out, True, True)
+
+    def _standoff(self, t, yaw, speed, cruise, vx_ref, wz_ref, max_yaw_rate, blocked,
+                  vo) -> Steer | None:
+        """A detour out of a standoff, when one has lasted ``STANDOFF_TIME``; else None.
+
+        A standoff: the robot stands (commanded forward speed below ``START_SPEED``) while
+        the planner keeps asking to move and its heading turns to and fro: the steering turns
+        it towards a free heading, the planner, whose heading error grows, stops walking and
+        turns back in place, and the QP refuses the few cm/s either asks for (random biped
+        seeds 4 and 6: 25 s of turning to and fro between pillars, a wall and stopped
+        walkers). Judged whatever the steering found free: its velocity obstacles take the
+        planner's momentary speed, near zero while it turns. ``STANDOFF_REVERSALS`` turns
+        back of at least ``SWING`` tell it from one long turn towards a free heading (a start).
+        A detour starts only when the planner's heading is blocked by the static obstacles
+        alone at cruise speed (movers are waited out); the clock restarts when the robot
+        walks or the planner stops.
+        """
+        if speed >= START_SPEED or (vx_ref <= 1e-3 and abs(wz_ref) <= 1e-3):
+            self._standoff_since = None
+            return None
+        if self._standoff_since is None:
+            self._standoff_since = t
+            self._swing = _Swing()
+        self._swing.note(yaw)
+        if (t - self._standoff_since < stall_detour.STANDOFF_TIME
+                or self._swing.reversals < STANDOFF_REVERSALS):
+            return None
+        p, w, r = vo
+        psi_ref = yaw + wz_ref * self.lookahead
+        kept = self._side if t - self._side_time <= self.side_memory else 0
+        if not (self._static_blocked(psi_ref, cruise, p, w, r)
+                and self.detour.start(t, psi_ref, kept, blocked)):
+            return None
+        self._standoff_since = None
+        return self._detour_step(t, yaw, speed, cruise, vx_ref, wz_ref, max_yaw_rate, blocked)
+
+    def _static_blocked(self, psi_ref, cruise, p, w, r) -> bool:
+        """The heading ``psi_ref`` meets a static obstacle (``STATIC_SPEED``) at cruise."""
+        still = np.hypot(w[:, 0], w[:, 1]) < STATIC_SPEED
+        if not still.any():
+            return False
+        return bool(blocked_headings(np.array([psi_ref]), max(cruise, 1e-3), p[still],
+                                     w[still], r[still], self.horizon)[0])
 
     def _static_dead_end(self, psi_ref, cruise, p, w, r) -> bool:
         """No heading within ``MAX_TURN`` of ``psi_ref`` is free of the static obstacles alone.

@@ -24,7 +24,12 @@ obstacles, as a bug algorithm follows a boundary, while the planner, turned away
 goal, asks to turn back in place. The detour ends when ``goal_heading`` itself is free from
 where the robot is, when the planner stops (zero speed and yaw rate), or after
 ``DETOUR_MAX``. The QP filters every shaped reference: no barrier constraint is weakened.
-Units: s, rad, m/s; headings in odom (REP-103).
+
+A detour also starts out of a **standoff** (``cone_steering.ConeSteering._standoff``): the
+robot has stood for ``STANDOFF_TIME`` while the planner asked to move and its yaw turned to
+and fro, the steering towards a free heading and the planner back towards its blocked one,
+with the planner's heading blocked by the static obstacles alone (random biped seeds 4 and 6
+turned to and fro for 25 s). Units: s, rad, m/s; headings in odom (REP-103).
 """
 
 from __future__ import annotations
@@ -36,12 +41,17 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = [
-    "DETOUR_MAX", "STALL_TIME", "SWITCH_MARGIN", "TURN_FIRST", "StallDetour", "chosen_side",
-    "first_free_offset",
+    "DETOUR_MAX", "STALL_TIME", "STANDOFF_TIME", "SWITCH_MARGIN", "TURN_FIRST", "StallDetour",
+    "chosen_side", "first_free_offset",
 ]
 
 STALL_TIME = 2.0
 """Time [s] stood still with no free heading before a detour starts."""
+STANDOFF_TIME = 6.0
+"""Time [s] stood still while the planner asks to move and its heading is blocked by static
+obstacles, whatever the steering found free, before a detour starts (a standoff, see
+``cone_steering``). Longer than a turn in place towards a free heading takes: 100 deg at the
+biped's 0.4 rad/s in 4.4 s."""
 DETOUR_MAX = 15.0
 """Longest detour [s]; a robot still blocked after it stalls again and starts a new one."""
 TURN_FIRST = math.radians(10.0)
