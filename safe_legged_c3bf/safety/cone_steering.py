@@ -263,19 +263,19 @@ class ConeSteering:
         p, w, r = vo
         psi_ref = yaw + wz_ref * self.lookahead
         kept = self._side if t - self._side_time <= self.side_memory else 0
-        if not (self._static_blocked(psi_ref, cruise, p, w, r)
+        if not (self._blocked_by_static(np.array([psi_ref]), cruise, p, w, r)[0]
                 and self.detour.start(t, psi_ref, kept, blocked)):
             return None
         self._standoff_since = None
         return self._detour_step(t, yaw, speed, cruise, vx_ref, wz_ref, max_yaw_rate, blocked)
 
-    def _static_blocked(self, psi_ref, cruise, p, w, r) -> bool:
-        """The heading ``psi_ref`` meets a static obstacle (``STATIC_SPEED``) at cruise."""
+    def _blocked_by_static(self, psi, cruise, p, w, r) -> np.ndarray:
+        """``(k,)`` bool: heading ``psi[j]`` meets a static obstacle (``STATIC_SPEED``)."""
         still = np.hypot(w[:, 0], w[:, 1]) < STATIC_SPEED
         if not still.any():
-            return False
-        return bool(blocked_headings(np.array([psi_ref]), max(cruise, 1e-3), p[still],
-                                     w[still], r[still], self.horizon)[0])
+            return np.zeros(len(psi), dtype=bool)
+        return blocked_headings(psi, max(cruise, 1e-3), p[still], w[still], r[still],
+                                self.horizon)
 
     def _static_dead_end(self, psi_ref, cruise, p, w, r) -> bool:
         """No heading within ``MAX_TURN`` of ``psi_ref`` is free of the static obstacles alone.
@@ -283,11 +283,7 @@ class ConeSteering:
         A robot held only by movers waits for them to pass rather than detour (a detour is
         for a standstill in front of static obstacles: pillars, walls, stopped walkers).
         """
-        still = np.hypot(w[:, 0], w[:, 1]) < STATIC_SPEED
-        if not still.any():
-            return False
-        return bool(blocked_headings(psi_ref + self._both, max(cruise, 1e-3), p[still],
-                                     w[still], r[still], self.horizon).all())
+        return bool(self._blocked_by_static(psi_ref + self._both, cruise, p, w, r).all())
 
     def _cruise(self, t: float, vx_ref: float) -> float:
         """The largest forward speed [m/s] asked for in the last ``cruise_memory`` s.

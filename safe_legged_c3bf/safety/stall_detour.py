@@ -48,10 +48,9 @@ __all__ = [
 STALL_TIME = 2.0
 """Time [s] stood still with no free heading before a detour starts."""
 STANDOFF_TIME = 6.0
-"""Time [s] stood still while the planner asks to move and its heading is blocked by static
-obstacles, whatever the steering found free, before a detour starts (a standoff, see
-``cone_steering``). Longer than a turn in place towards a free heading takes: 100 deg at the
-biped's 0.4 rad/s in 4.4 s."""
+"""Time [s] stood still while the planner asks to move and the yaw turns to and fro, before a
+detour out of that standoff starts (``cone_steering.ConeSteering._standoff``). Longer than a
+turn in place towards a free heading takes: 100 deg at the biped's 0.4 rad/s in 4.4 s."""
 DETOUR_MAX = 15.0
 """Longest detour [s]; a robot still blocked after it stalls again and starts a new one."""
 TURN_FIRST = math.radians(10.0)
