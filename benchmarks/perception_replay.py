@@ -16,7 +16,9 @@ what it would publish, and prints per recording and overall:
 
 Settings: ``--param NAME=VALUE`` overrides a detector node parameter
 (``config/obstacle_detector.yaml``), ``--track NAME=VALUE`` a tracker ``TrackConfig`` field;
-values are read as YAML. About 5 s per 30 s recording.
+values are read as YAML. The robot kind (sensor mounts) is guessed from the file name
+("biped" in it, else quadruped); ``--param robot_kind=biped`` sets it. About 5 s per 30 s
+recording.
 
 Usage::
 
@@ -56,9 +58,8 @@ def redetect(path: Path, overrides: dict[str, object]) -> tuple[list, list, np.n
     from safe_legged_c3bf.interfaces import topics
     from safe_legged_c3bf.nodes.obstacle_detector_node import ObstacleDetectorNode
 
-    kind = "biped" if "biped" in path.name else "quadruped"
-    params = [Parameter("robot_kind", value=kind)]
-    params += [Parameter(k, value=v) for k, v in overrides.items() if k != "robot_kind"]
+    settings = {"robot_kind": "biped" if "biped" in path.name else "quadruped", **overrides}
+    params = [Parameter(k, value=v) for k, v in settings.items()]
     node = ObstacleDetectorNode(parameter_overrides=params)
     published: list = []
     node._pub.publish = published.append  # what the node would publish
@@ -107,10 +108,9 @@ def main() -> int:
     import rclpy
 
     rclpy.init()
-    tracker = TrackerConfig(track=TrackConfig(**_assignments(args.track)))
-    overrides = _assignments(args.param)
-    print(f"detector overrides {overrides or '-'}; tracker overrides "
-          f"{_assignments(args.track) or '-'}")
+    overrides, track = _assignments(args.param), _assignments(args.track)
+    tracker = TrackerConfig(track=TrackConfig(**track))
+    print(f"detector overrides {overrides or '-'}; tracker overrides {track or '-'}")
     print(f"{'recording':<22} {'frames':>6} {'recall':>6} {'visible':>7} {'centre p50/p90 (m)':>19}"
           f" {'clean':>6} {'static>0.2':>10} {'p95 m/s':>7} {'movers p50/p90 m/s':>19}")
     total = {"pairs": 0, "hits": 0, "visible": 0, "visible_hits": 0, "clean": 0, "frames": 0}
