@@ -13,6 +13,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import LaserScan
 from visualization_msgs.msg import Marker, MarkerArray
 
 from safe_legged_c3bf.interfaces import topics
@@ -249,11 +250,52 @@ def test_startup_rejects_an_invalid_configuration(ros_executor):
         )
 
 
+def _same(a: object, b: object) -> bool:
+    """Equal, with NaN equal to NaN and a list equal to a tuple of the same items."""
+    if isinstance(a, (list, tuple)) or hasattr(a, "tolist"):
+        a, b = list(a), list(b)
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
+        return True
+    return a == b
+
+
 def test_defaults_equal_the_config_file(ros_executor):
     data = yaml.safe_load(config_path("obstacle_tracker.yaml").read_text())
     params = data["obstacle_tracker"]["ros__parameters"]
-    assert params == ObstacleTrackerParams.defaults()
+    defaults = ObstacleTrackerParams.defaults()
+    assert params.keys() == defaults.keys()
+    for name, value in params.items():
+        assert _same(value, defaults[name]), name
     node = ObstacleTrackerNode(context=ros_executor.context_for_nodes)
     ros_executor.add_node(node)
     for name, value in params.items():
-        assert node.get_parameter(name).value == value, name
+        assert _same(node.get_parameter(name).value, value), name
+
+
+@pytest.mark.parametrize("clearing", [True, False], ids=["clearing", "no_clearing"])
+def test_a_scan_that_sees_through_a_coasting_track_deletes_it(ros_executor, clearing):
+    """With scan_clearing, /scan beams through a lost track's place delete it early."""
+    h = Harness(ros_executor, scan_clearing=clearing)
+    scan_pub = h.io.create_publisher(LaserScan, topics.SCAN.name, ros_common.qos(topics.SCAN))
+    assert wait_for_discovery(ros_executor, scan_pub)
+    for _ in range(10):
+        h.tick([detection(1.5, 0.0)])
+    lost = h.ns * 1e-9
+    for _ in range(30):  # 1.5 s of empty batches and scans that reach 3 m all around
+        h.tick([])
+        scan = LaserScan(angle_min=-math.pi, angle_increment=2.0 * math.pi / 360,
+                         range_min=0.1, range_max=8.0, ranges=[3.0] * 360)
+        scan.header.stamp = _stamp(h.ns)
+        scan.header.frame_id = "lidar_link"
+        used = h.node.scans_used
+        scan_pub.publish(scan)
+        if clearing:
+            assert spin_until(ros_executor, lambda u=used: h.node.scans_used > u, 5.0)
+    h.flush()
+    shown = [ros_common.from_time_msg(m.header.stamp) for m in h.obstacles if m.obstacles]
+    gone_after = max(shown) - lost
+    if clearing:  # clear_after 0.25 s, then two scans
+        assert gone_after < 0.5 and h.node.tracks_cleared == 1
+    else:  # max_coast_time
+        assert gone_after >= 0.9 and h.node.scans_used == 0

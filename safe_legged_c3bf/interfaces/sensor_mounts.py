@@ -76,3 +76,19 @@ def default_mounts(robot_kind: str) -> dict[str, SensorMount]:
     if robot_kind not in table:
         raise ValueError(f"no sensor mounts for robot kind {robot_kind!r}")
     return {m.frame_id: m for m in table[robot_kind]}
+
+
+def resolve_mount(
+    robot_kind: str, frame: str, frame_id: str,
+    xyz: tuple[float, float, float], rpy: tuple[float, float, float],
+) -> SensorMount:
+    """The robot kind's mount of ``frame`` named ``frame_id``; a vector not NaN replaces its part.
+
+    ``xyz`` (m) and ``rpy`` (rad) in base_link are three numbers or three NaN (the kind's).
+    """
+    base = default_mounts(robot_kind)[frame]
+    return SensorMount(
+        frame_id,
+        base.xyz if math.isnan(xyz[0]) else tuple(float(v) for v in xyz),
+        base.rpy if math.isnan(rpy[0]) else tuple(float(v) for v in rpy),
+    )

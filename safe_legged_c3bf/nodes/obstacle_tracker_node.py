@@ -29,6 +29,11 @@ can neither make real detections look old nor keep /obstacles alive. Messages la
 ``max_message_bytes`` are rejected before decoding; batches of more than ``max_detections``
 keep the nearest. Two detectors on one topic are merged (see ``TrackerConfig.max_reorder``).
 /odom is judged the same way before its position and speed are used.
+
+With ``scan_clearing`` the node also takes /scan (in ``lidar_frame``, placed in odom by the
+LiDAR's mount and the /odom poses): a coasting track whose place the beams pass right through
+is deleted (``perception/scan_clearing.py``), counted as ``tracks_cleared``. A scan is judged
+like a detection message (size, frame, stamp; no pose for its stamp: ``scan_no_pose``).
 """
 
 from __future__ import annotations
@@ -41,6 +46,7 @@ from nav_msgs.msg import Odometry
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
+from sensor_msgs.msg import LaserScan
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -57,6 +63,7 @@ from safe_legged_c3bf.perception import (
     TrackerConfig,
 )
 from safe_legged_c3bf.perception.params import ObstacleTrackerParams
+from safe_legged_c3bf.perception.scan_clearing import ScanPlacer
 from safe_legged_c3bf.safety import StampGate, StampVerdict
 from safe_legged_c3bf_msgs.msg import Obstacle, ObstacleArray
 
@@ -200,6 +207,10 @@ class ObstacleTrackerNode(Node):
         ros_common.subscription(self, topics.OBSTACLE_DETECTIONS, self._on_detections, raw=True)
         self.rejected_messages: dict[str, int] = {}  # whole messages, by reason
         ros_common.subscription(self, topics.ODOM, self._on_odom)
+        self._scans = ScanPlacer(p.lidar_mount().matrix())
+        self.tracks_cleared = 0
+        self.scans_used = 0
+        ros_common.subscription(self, topics.SCAN, self._on_scan, raw=True)
         self._timer = self.create_timer(1.0 / float(p.rate), self._on_timer)
         self.create_timer(float(p.diagnostics_period), self._publish_diagnostics)
 
@@ -257,6 +268,8 @@ class ObstacleTrackerNode(Node):
             return
         p, v = msg.pose.pose.position, msg.twist.twist.linear
         self._robot_position = (p.x, p.y, p.z)
+        q = msg.pose.pose.orientation
+        self._scans.add_pose(stamp, self._robot_position, (q.x, q.y, q.z, q.w))
         self.tracker.observe_robot(self._robot_position, math.hypot(v.x, v.y))
 
     def _on_detections(self, raw: bytes) -> None:
@@ -287,6 +300,39 @@ class ObstacleTrackerNode(Node):
             )
         for track_id in report.deleted:
             self.get_logger().debug(f"track {track_id} deleted")
+
+    def _on_scan(self, raw: bytes) -> None:
+        """Clear the coasting tracks this scan sees through (only with ``scan_clearing``)."""
+        params = self.params.value
+        if not params.tracker.scan_clearing:
+            return
+        if len(raw) > int(params.max_message_bytes):
+            self._reject_message("scan", "too_large")
+            return
+        try:
+            msg = deserialize_message(raw, LaserScan)
+        except Exception:  # noqa: BLE001 - any undecodable payload is dropped
+            self._reject_message("scan", "undecodable")
+            return
+        if msg.header.frame_id != params.lidar_frame:
+            self._reject_message("scan", "wrong_frame")
+            return
+        stamp = ros_common.from_time_msg(msg.header.stamp)
+        verdict = self._gate(float(params.detections_timeout)).verdict(stamp, self._now())
+        if verdict is not StampVerdict.OK:
+            self._reject_message("scan", verdict.value)
+            return
+        seen = self._scans.seen_free(
+            stamp, msg.angle_min, msg.angle_increment, np.asarray(msg.ranges, dtype=float),
+            msg.range_min, msg.range_max,
+        )
+        if seen is None:
+            self._reject_message("scan", "no_pose")
+            return
+        self.scans_used += 1
+        for track_id in self.tracker.clear_seen_through(seen):
+            self.tracks_cleared += 1
+            self.get_logger().debug(f"track {track_id} cleared: the scan sees through it")
 
     # -- output -----------------------------------------------------------------------------
     def detections_stale(self, t: float) -> bool:
@@ -363,6 +409,8 @@ class ObstacleTrackerNode(Node):
             "tracks_tentative": sum(1 for trk in tracks if not trk.confirmed),
             "obstacles_published": self._last_count,
             "maneuvers_detected": self.tracker.maneuver_count,
+            "tracks_cleared": self.tracks_cleared,
+            "scans_used": self.scans_used,
             "detection_messages": self.detection_messages,
             "rejected_total": total,
             **{f"rejected_{reason}": n for reason, n in counts.items()},

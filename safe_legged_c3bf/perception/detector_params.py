@@ -19,7 +19,7 @@ from safe_legged_c3bf.interfaces.sensor_mounts import (
     DEPTH_FRAME,
     LIDAR_FRAME,
     SensorMount,
-    default_mounts,
+    resolve_mount,
 )
 from safe_legged_c3bf.interfaces.typed_params import (
     FINITE_OR_NAN,
@@ -138,20 +138,14 @@ class ObstacleDetectorParams(TypedParams):
 
     def mounts(self) -> tuple[SensorMount, SensorMount]:
         """The LiDAR's and the 3-D sensor's mounts: the robot kind's, with the overrides."""
-        defaults = default_mounts(self.robot_kind)
-        out = []
-        for sensor, frame, xyz, rpy in (
-            ("lidar", LIDAR_FRAME, self.lidar_xyz, self.lidar_rpy),
-            ("cloud", DEPTH_FRAME, self.cloud_xyz, self.cloud_rpy),
-        ):
-            base = defaults[frame]
-            frame_id = self.lidar_frame if sensor == "lidar" else self.cloud_frame
-            out.append(SensorMount(
-                frame_id,
-                base.xyz if math.isnan(xyz[0]) else tuple(float(v) for v in xyz),
-                base.rpy if math.isnan(rpy[0]) else tuple(float(v) for v in rpy),
-            ))
-        return out[0], out[1]
+        return (
+            resolve_mount(
+                self.robot_kind, LIDAR_FRAME, self.lidar_frame, self.lidar_xyz, self.lidar_rpy
+            ),
+            resolve_mount(
+                self.robot_kind, DEPTH_FRAME, self.cloud_frame, self.cloud_xyz, self.cloud_rpy
+            ),
+        )
 
     def self_box(self) -> SelfBox:
         """The footprint box: the robot kind's, with the overrides (ValueError if invalid)."""

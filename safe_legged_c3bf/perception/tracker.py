@@ -23,8 +23,10 @@ from enum import StrEnum
 import numpy as np
 
 from safe_legged_c3bf.interfaces.typed_params import (
+    FLAG,
     NON_EMPTY,
     NON_NEGATIVE,
+    POSITIVE,
     POSITIVE_OR_INF,
     TypedParams,
     at_least,
@@ -37,6 +39,7 @@ from safe_legged_c3bf.perception.association import (
     gate_threshold,
     mahalanobis_cost_matrix,
 )
+from safe_legged_c3bf.perception.scan_clearing import ClearingConfig, SeenFree, seen_through
 from safe_legged_c3bf.perception.track import (
     Detection,
     ObstaclePlane,
@@ -130,7 +133,35 @@ class TrackerConfig(TypedParams):
         0.3, "s", "time without an update before the semi-axes start to grow: a few detection "
         "periods, so ordinary gaps between frames do not grow obstacles", NON_NEGATIVE,
     )
+    scan_clearing: bool = param(
+        False, "-", "delete a coasting track whose place the 2-D LiDAR's beams pass right "
+        "through (perception/scan_clearing.py; the node subscribes to the scan) (flag)", FLAG,
+    )
+    clear_after: float = param(
+        0.25, "s", "time without an update before the scan may clear a track", NON_NEGATIVE,
+    )
+    clear_scans: int = param(
+        2, "-", "consecutive scans (a count) that must see through a track to clear it",
+        at_least(1),
+    )
+    clear_min_beams: int = param(
+        3, "-", "readable beams (a count) that must cross a track's core", at_least(1),
+    )
+    clear_margin: float = param(
+        0.1, "m", "each of them must reach this far beyond the core's far side", NON_NEGATIVE,
+    )
+    clear_height_tolerance: float = param(
+        0.05, "m", "a track whose top is lower than the scan plane by more than this is never "
+        "cleared (the LiDAR passes over it)", POSITIVE,
+    )
     track: TrackConfig = group(TrackConfig)
+
+    def clearing(self) -> ClearingConfig:
+        """The ``clear_*`` parameters as the clearing module takes them."""
+        return ClearingConfig(
+            self.clear_after, self.clear_scans, self.clear_min_beams, self.clear_margin,
+            self.clear_height_tolerance,
+        )
 
     def __post_init__(self) -> None:
         """Validate the parameters (raises ``ValueError`` naming the bad one)."""
@@ -242,6 +273,7 @@ class MultiObstacleTracker:
         self._robot_position: np.ndarray | None = None  # odom (m)
         self._robot_moving = False
         self._maneuvers = 0
+        self._seen_through: dict[int, int] = {}  # track_id -> scans in a row that saw through
 
     # ------------------------------------------------------------------ state
     @property
@@ -268,6 +300,7 @@ class MultiObstacleTracker:
         """Drop all tracks and the time reference (rejection counters are kept)."""
         self._tracks.clear()
         self._last_time = None
+        self._seen_through.clear()
 
     def observe_robot(self, position: Sequence[float], speed: float) -> None:
         """The robot's position (odom, m) and planar speed (m/s), for keeping near tracks."""
@@ -286,6 +319,41 @@ class MultiObstacleTracker:
         center = trk.kf.state_at(t)[0][:2]
         gap = float(np.linalg.norm(center - self._robot_position[:2])) - max(trk.semi_axes)
         return gap < cfg.keep_near_distance
+
+    def clear_seen_through(self, seen: SeenFree) -> list[int]:
+        """Delete the tracks a scan has seen through ``clear_scans`` times in a row.
+
+        Only with ``scan_clearing``; returns the deleted ``track_id`` values
+        (``perception/scan_clearing.py`` says which tracks a scan can clear).
+        """
+        if not self.config.scan_clearing or not math.isfinite(seen.stamp):
+            return []
+        clearing = self.config.clearing()
+        counts: dict[int, int] = {}
+        deleted: list[int] = []
+        alive: list[Track] = []
+        for trk in self._tracks:
+            if trk.confirmed and trk.plane is ObstaclePlane.VERTICAL and (
+                seen.stamp - trk.last_update_time >= clearing.after
+            ) and self._seen_through_by(seen, trk, clearing):
+                counts[trk.track_id] = self._seen_through.get(trk.track_id, 0) + 1
+            if counts.get(trk.track_id, 0) >= clearing.scans:
+                trk.delete()
+                deleted.append(trk.track_id)
+                del counts[trk.track_id]
+            else:
+                alive.append(trk)
+        self._tracks = alive
+        self._seen_through = counts
+        return deleted
+
+    @staticmethod
+    def _seen_through_by(seen: SeenFree, trk: Track, clearing: ClearingConfig) -> bool:
+        """Whether ``seen`` passes through ``trk``'s core, predicted to the scan's stamp."""
+        last = trk.snapshot(trk.last_update_time)
+        top = float(last.center[2]) + 0.5 * float(last.extent)
+        now = trk.kf.state_at(seen.stamp)[0]
+        return seen_through(seen, now[:2], min(last.semi_axes), top, clearing)
 
     def _is_stale(self, trk: Track, t: float) -> bool:
         return trk.is_stale(t) and not self._kept_near(trk, t)

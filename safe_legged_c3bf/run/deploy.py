@@ -51,8 +51,8 @@ def deploy_specs(opts: argparse.Namespace) -> list[NodeSpec]:
     for name in names:
         params: dict[str, Any] = dict(profile.get(name, {}))
         params["use_sim_time"] = bool(opts.use_sim_time)
-        if name == "obstacle_detector":
-            params["robot_kind"] = opts.robot
+        if name in ("obstacle_detector", "obstacle_tracker"):
+            params["robot_kind"] = opts.robot  # the sensors' default mounts
         specs.append(NodeSpec(
             name=name, module=modules[name], parameters=params,
             params_files=config_files(name, "sensors"),

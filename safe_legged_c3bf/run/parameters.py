@@ -99,6 +99,7 @@ def _bringup_layer(
     params["safety_filter"]["enabled"] = not opts.no_filter
     params["gait_controller"]["robot"] = robot_kind
     params["obstacle_detector"]["robot_kind"] = robot_kind  # the sensors' mounts
+    params["obstacle_tracker"]["robot_kind"] = robot_kind  # the LiDAR's (scan_clearing)
     # the recorder also reads /joint_commands: hold physics until it has matched
     recording = getattr(opts, "record", None) is not None
     params["gait_controller"]["start_subscribers"] = 2 if recording else 1
