@@ -66,3 +66,16 @@ def test_a_replays_params_files_reach_the_pipeline_built_in_process(tmp_path):
     _, plain = pipeline_parameters("quadruped")
     assert plain["obstacle_tracker"]["maneuver_detection"] is True
     assert plain["obstacle_detector"]["cloud_row_spacing"] != 0.045
+
+
+def test_scan_clearing_is_on_with_sensors_and_the_tracker_gets_the_robots_lidar(tmp_path):
+    """The tracker reads /scan with sensors (config/sensors/obstacle_tracker.yaml says why)."""
+    assert _tracker(config_files("obstacle_tracker"))["scan_clearing"] is False
+    assert _tracker(config_files("obstacle_tracker", "sensors"))["scan_clearing"] is True
+    biped = make_plan(build_parser().parse_args(
+        ["--perception", "sensors", "--scenario", "biped_default", "--out", str(tmp_path / "b")]))
+    assert merged_parameters(biped.spec("obstacle_tracker"))["robot_kind"] == "biped"
+    deploy = {s.name: s for s in deploy_specs(build_parser().parse_args(
+        ["--deploy", "--robot", "biped"]))}
+    merged = merged_parameters(deploy["obstacle_tracker"])
+    assert merged["robot_kind"] == "biped" and merged["scan_clearing"] is True

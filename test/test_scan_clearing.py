@@ -148,3 +148,7 @@ def test_a_scan_clears_nothing_when_off_or_with_a_non_finite_stamp():
     assert off.clear_seen_through(_scan(_ranges(), stamp=2.0)) == []
     assert off.clear_seen_through(_scan(_ranges(), stamp=2.1)) == []
     assert len(off.tracks) == 1
+
+
+def test_the_trackers_defaults_are_the_modules():
+    assert TrackerConfig().clearing() == ClearingConfig()

@@ -80,7 +80,8 @@ OBSTACLE_MARKERS = Topic(
 )
 SCAN = Topic(
     "/scan", "sensor_msgs/msg/LaserScan", "simulator (sensors perception) / robot driver",
-    "2-D LiDAR ranges in lidar_link (x forward, angles about z), best effort", reliable=False,
+    "2-D LiDAR ranges in lidar_link (x forward, angles about z), best effort; read by the "
+    "obstacle detector and, to clear ghost tracks, the tracker", reliable=False,
     depth=5,
 )
 POINTS = Topic(
