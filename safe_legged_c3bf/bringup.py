@@ -85,9 +85,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--node", action="append", default=[], metavar="NAME=MODULE",
                    help="run MODULE instead of the standard module for node NAME (repeatable)")
     p.add_argument("--executor", choices=("events", "single", "multi"), default=None,
-                   help="rclpy executor of every node process (default events), or of the "
-                        "one process with --in-process (default single; multi: --in-process "
-                        "only)")
+                   help="rclpy executor of every node process, or of the one process with "
+                        "--in-process (default events; multi: --in-process only)")
     p.add_argument("--startup-timeout", type=float, default=60.0, metavar="S",
                    help="wall seconds to wait for simulation time to start (default 60)")
     p.add_argument("--stall-timeout", type=float, default=30.0, metavar="S",

@@ -64,7 +64,7 @@ def make_launcher(opts: argparse.Namespace, run_dir: Path) -> Launcher:
     if opts.in_process:
         from safe_legged_c3bf.run.in_process import InProcessLauncher
 
-        return InProcessLauncher(run_dir, executor=opts.executor or "single")
+        return InProcessLauncher(run_dir, executor=opts.executor or "events")
     from safe_legged_c3bf.nodes.ros_common import EXECUTOR_VARIABLE
     from safe_legged_c3bf.run.processes import ProcessLauncher
 
