@@ -268,8 +268,9 @@ class ObstacleTrackerNode(Node):
             return
         p, v = msg.pose.pose.position, msg.twist.twist.linear
         self._robot_position = (p.x, p.y, p.z)
-        q = msg.pose.pose.orientation
-        self._scans.add_pose(stamp, self._robot_position, (q.x, q.y, q.z, q.w))
+        if self.params.value.tracker.scan_clearing:  # poses only to place scans
+            q = msg.pose.pose.orientation
+            self._scans.add_pose(stamp, self._robot_position, (q.x, q.y, q.z, q.w))
         self.tracker.observe_robot(self._robot_position, math.hypot(v.x, v.y))
 
     def _on_detections(self, raw: bytes) -> None:
