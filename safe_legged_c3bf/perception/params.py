@@ -57,8 +57,8 @@ class ObstacleTrackerParams(TypedParams):
         "rejected (a publisher not on sim time)", NON_NEGATIVE,
     )
     max_message_bytes: int = param(
-        262144, "bytes", "detection messages larger than this (serialized) are rejected "
-        "before decoding", at_least(1),
+        262144, "bytes", "detection (and, with scan_clearing, /scan) messages larger than this "
+        "(serialized) are rejected before decoding", at_least(1),
     )
     robot_kind: str = param(
         "quadruped", "-", "robot whose 2-D LiDAR mount is the default (scan_clearing)",
