@@ -109,34 +109,3 @@ def body_gap(robot: SimpleRobot, ob: ScriptedObstacle, t: float, params) -> floa
             d = math.hypot(o.center[0] - px, o.center[2] - (robot.z + lz))
         gaps.append(d - max(o.semi_axes) - p.radius)
     return min(gaps)
-
-
-def drive_to_goal(cycle, robot: SimpleRobot, obstacles, goal, duration: float,  # noqa: ANN001
-                  max_vx: float, rate: float = 50.0, watch=None) -> float:
-    """The biped profile's loop: the reference planner (goal mode) -> ``cycle`` -> ``robot``.
-
-    The robot integrates at five times the filter ``rate`` [Hz]; ``watch(t, robot)`` is
-    called after every cycle. Returns the time [s] the base is within 0.3 m of ``goal`` (odom,
-    m), inf if not within ``duration`` [s].
-    """
-    from safe_legged_c3bf.planning.reference_planner import (
-        PlannerConfig,
-        ReferencePlanner,
-        RobotPose,
-    )
-
-    planner = ReferencePlanner(PlannerConfig(mode="goal", max_vx=max_vx, z_nominal=0.82))
-    planner.set_goal(*goal)
-    dt = 1.0 / rate
-    for k in range(int(duration * rate)):
-        t = k * dt
-        ref = planner.compute(RobotPose(robot.x, robot.y, robot.yaw, robot.z), t)
-        out = cycle.step(t, VelocityCommand(ref.vx, ref.vy, 0.0, ref.yaw_rate), t,
-                         robot.base_state(t), obstacles, t)
-        for _ in range(5):
-            robot.step(out.command, dt / 5)
-        if watch is not None:
-            watch(t, robot)
-        if math.hypot(goal[0] - robot.x, goal[1] - robot.y) < 0.3:
-            return t
-    return math.inf

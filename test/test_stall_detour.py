@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from filter_harness import SimpleRobot, drive_to_goal
+from filter_harness import SimpleRobot
 
 from safe_legged_c3bf.c3bf.body import robot_body
 from safe_legged_c3bf.c3bf.geometry import Plane
@@ -173,6 +173,12 @@ def _biped_standoff(standoff_time: float, monkeypatch) -> float:
     """Random biped seed 4 at t = 18 s, in the unit harness (biped profile, first-order robot):
     stood between two pillars and two stopped walkers, its goal 2.6 m away behind them.
     Returns the time [s] the goal is reached (inf: not in 40 s)."""
+    from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand as Command
+    from safe_legged_c3bf.planning.reference_planner import (
+        PlannerConfig,
+        ReferencePlanner,
+        RobotPose,
+    )
     from safe_legged_c3bf.run.parameters import robot_profile
 
     monkeypatch.setattr(stall_detour, "STANDOFF_TIME", standoff_time)
@@ -183,9 +189,21 @@ def _biped_standoff(standoff_time: float, monkeypatch) -> float:
                                           ("pillar_1", -1.423, -1.973, 0.232, 0.197),
                                           ("walker_2", -0.439, -2.442, 0.216, 0.192),
                                           ("walker_3", -1.206, -1.01, 0.153, 0.118)]]
+    planner = ReferencePlanner(PlannerConfig(mode="goal", max_vx=0.2, z_nominal=0.82))
+    goal = np.array([-2.193, -2.84])
+    planner.set_goal(*goal)
     robot = SimpleRobot(x=-0.25, y=-1.6, yaw=math.radians(-118.0), z=0.81, tau=0.3,
                         holonomic=True)
-    return drive_to_goal(cycle, robot, obstacles, (-2.193, -2.84), 40.0, max_vx=0.2)
+    for k in range(int(40.0 * RATE)):
+        t = k * DT
+        ref = planner.compute(RobotPose(robot.x, robot.y, robot.yaw, robot.z), t)
+        out = cycle.step(t, Command(ref.vx, ref.vy, 0.0, ref.yaw_rate), t,
+                         robot.base_state(t), obstacles, t)
+        for _ in range(5):
+            robot.step(out.command, DT / 5)
+        if np.hypot(*(goal - (robot.x, robot.y))) < 0.3:
+            return t
+    return math.inf
 
 
 def test_a_standoff_between_pillars_and_stopped_walkers_is_left_sooner(monkeypatch):
