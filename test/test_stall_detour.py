@@ -207,19 +207,7 @@ def _biped_standoff(standoff_time: float, monkeypatch) -> float:
 
 
 def test_a_standoff_between_pillars_and_stopped_walkers_is_left_sooner(monkeypatch):
-    """Turning to and fro (the steering left, the planner back right) ends in a detour.
-
-    At the goal in 27.6 s with the detour against 34.0 s without when written. The steering
-    now also walks a planner that stopped to turn back on along the free heading for a while
-    (``ConeSteering._turning_back``), which leaves this standoff by itself (27.8 s with or
-    without the detour): the detour is tested with that rule off (27.7 s against 32.6 s)."""
-    from safe_legged_c3bf.safety.cone_steering import ConeSteering
-
-    everything = _biped_standoff(stall_detour.STANDOFF_TIME, monkeypatch)
-    monkeypatch.setattr(ConeSteering, "_turning_back", lambda self, t, wz_ref, cruise: False)
+    """Turning to and fro (the steering left, the planner back right) ends in a detour."""
     with_detour = _biped_standoff(stall_detour.STANDOFF_TIME, monkeypatch)
     without = _biped_standoff(math.inf, monkeypatch)
-    print(f"\nat the goal: {everything:.2f} s; turning-back rule off: with the detour "
-          f"{with_detour:.2f} s, without {without:.2f} s")
-    assert with_detour < without - 3.0, (with_detour, without)
-    assert everything < without - 3.0, (everything, without)
+    assert with_detour < without - 5.0, (with_detour, without)

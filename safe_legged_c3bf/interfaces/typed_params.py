@@ -29,9 +29,8 @@ from numbers import Integral, Real
 from typing import Any, ClassVar, Self
 
 __all__ = [
-    "FINITE", "FINITE_OR_NAN", "FLAG", "INTEGER", "NON_EMPTY", "NON_NEGATIVE",
-    "NON_NEGATIVE_OR_INF", "POSITIVE", "POSITIVE_OR_INF", "TEXT", "ParamSpec", "Rule",
-    "TypedParams", "at_least", "group",
+    "FINITE", "FINITE_OR_NAN", "FLAG", "INTEGER", "NON_EMPTY", "NON_NEGATIVE", "POSITIVE",
+    "POSITIVE_OR_INF", "TEXT", "ParamSpec", "Rule", "TypedParams", "at_least", "group",
     "interval", "one_of", "optional", "param", "param_like", "vector",
 ]
 
@@ -72,9 +71,6 @@ POSITIVE_OR_INF = Rule(
     "a number > 0 (inf = no limit)", lambda v: _number(v) and v > 0, -1.0
 )
 NON_NEGATIVE = Rule("a finite number >= 0", lambda v: _finite(v) and v >= 0, -1.0)
-NON_NEGATIVE_OR_INF = Rule(
-    "a number >= 0 (inf = no limit)", lambda v: _number(v) and v >= 0, -1.0
-)
 FINITE = Rule("a finite number", _finite, math.inf)
 FINITE_OR_NAN = Rule(
     "a finite number or NaN (unset)", lambda v: _number(v) and not math.isinf(v), math.inf

@@ -15,10 +15,7 @@ Geometry (odom, m, m/s, rad): the robot is a disc of radius ``robot_radius`` abo
 heading is what the disc decides); obstacle ``i`` a circle of radius ``r_i`` at ``c_i``
 moving at ``w_i``. Heading ``psi`` at speed ``v`` is blocked by obstacle ``i`` when, with
 ``p = c_i - x`` and ``v_rel = w_i - v (cos psi, sin psi)``, the relative path
-``p + v_rel t`` comes within ``r_i + robot_radius`` for some ``t`` in ``[0, horizon]``
-(``steer_horizon``, inf by default: every collision cone at any distance, as the barrier sees
-them; within 20 s a far cone looked free at the slow speeds a planner asks while it turns,
-the steering kept the heading and the QP braked the robot to a creep there).
+``p + v_rel t`` comes within ``r_i + robot_radius`` for some ``t`` in ``[0, horizon]``.
 Headings are searched on a grid of ``heading_step`` around the reference heading ``psi_ref =
 yaw + wz_ref * lookahead``; the side chosen last is preferred for ``side_memory`` s.
 
@@ -29,11 +26,7 @@ along a wall at half the planner's speed. Once the steering has turned or clampe
 reference that asks to walk forward, its forward speed is at least the planner's cruise
 speed, the largest forward speed the reference asked for in the last ``cruise_memory`` s
 (scaled by the cosine of the heading error while turning towards the free heading). It never
-exceeds what the planner itself asked for in that window; the QP filters the result. A
-planner that stops walking to turn back in place within ``side_memory`` s of the last
-walking reference steered is steered as if it still asked for its cruise speed
-(``_turning_back``): its stop is the steering's doing too, and passing its turn on sent the
-robot back into the cone.
+exceeds what the planner itself asked for in that window; the QP filters the result.
 
 Out of a standstill: with no free heading (``stall_detour``), or in a standoff, the robot
 turning to and fro in place between the steering's free heading and the planner's blocked
@@ -166,7 +159,6 @@ class ConeSteering:
         self._side, self._side_time = 0, -math.inf
         self.detour = StallDetour(heading_step, heading_gain, START_SPEED, EDGE_STEPS)
         self._standoff_since: float | None = None  # s: stood while the planner asks to move
-        self._steered = -math.inf  # s: last time a walking reference was steered
         self._swing = _Swing()  # the yaw's turns to and fro during that standstill
 
     def steer(self, t: float, pos, yaw: float, vx_ref: float, wz_ref: float,
@@ -193,40 +185,9 @@ class ConeSteering:
                                     blocked, (p, w, r))
         if detour is not None:
             return detour
-        if vx_ref > 1e-3:
-            out = self._steer_walking(t, yaw, vx_ref, wz_ref, cruise, speed, max_yaw_rate,
-                                      (p, w, r), blocked)
-            if out.side != 0 and not out.detour:
-                self._steered = t  # a walking reference steered (what _turning_back counts)
-            return out
-        if not self._turning_back(t, wz_ref, cruise):
+        if vx_ref <= 1e-3:
             self.detour.reset_stall()
             return Steer(vx_ref, wz_ref, 0, True)
-        out = self._steer_walking(t, yaw, cruise, wz_ref, cruise, speed, max_yaw_rate,
-                                  (p, w, r), blocked)  # judged at the speed it stopped from
-        if out.side == 0:  # free to turn back, or nothing to steer to: the planner's own
-            return Steer(vx_ref, wz_ref, 0, out.free)
-        return out
-
-    def _turning_back(self, t: float, wz_ref: float, cruise: float) -> bool:
-        """The planner stopped to turn back in place soon after the steering turned it away.
-
-        A goal-seeking planner stops walking once its heading error is large (the reference
-        planner at 60 deg) and turns back in place; when that error is the steering's doing
-        (a reference steered within ``side_memory`` s), passing the turn on sends the robot
-        back into the cone it was turned out of, and the robot turns to and fro in place
-        (``biped_corner``, random biped seeds 4 and 6). Its wish is still to walk on, at its
-        cruise speed: the steering keeps treating it so, for ``side_memory`` s after the last
-        walking reference it steered (not renewed meanwhile: kept on, the robot walked on
-        along a free heading 90 deg off its goal, random A1 seed 5).
-        """
-        return (abs(wz_ref) > 1e-3 and cruise > 1e-3
-                and t - self._steered <= self.side_memory)
-
-    def _steer_walking(self, t, yaw, vx_ref, wz_ref, cruise, speed, max_yaw_rate, vo,
-                       blocked) -> Steer:
-        """:meth:`steer` for a reference asking to walk at ``vx_ref`` [m/s] (> 0)."""
-        p, w, r = vo
         psi_ref = yaw + wz_ref * self.lookahead
         # The yaw, the reference heading and the scan around the yaw in one call (the scan
         # is what a free yaw needs next; each heading's answer is its own row).

@@ -8,13 +8,11 @@ with the reason. Every parameter can be changed while the node runs.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 from safe_legged_c3bf.interfaces.typed_params import (
     FLAG,
     NON_NEGATIVE,
-    NON_NEGATIVE_OR_INF,
     POSITIVE,
     TypedParams,
     at_least,
@@ -152,12 +150,11 @@ class FilterParams(TypedParams):
         "grow with it)", NON_NEGATIVE,
     )
     steer_horizon: float = param(
-        math.inf, "s", "cone steering (whole-body model, unicycle): a reference heading whose "
-        "path meets an obstacle within this time is turned to the nearest free heading before "
-        "the QP (safety/cone_steering.py); 0: off. inf (default): at any time, as the C3BF "
-        "itself, which refuses every collision cone at any distance: with a finite horizon a "
-        "far cone looks free, most of all while the planner slows down to turn, the steering "
-        "keeps its heading and the QP brakes the robot to a creep there", NON_NEGATIVE_OR_INF,
+        20.0, "s", "cone steering (whole-body model, unicycle): a reference heading whose path "
+        "meets an obstacle within this time is turned to the nearest free heading before the QP "
+        "(safety/cone_steering.py); 0: off. The C3BF itself is distance-free (it refuses to "
+        "enter a cone at any distance), so a short horizon leaves far cones to the QP, which "
+        "brakes", NON_NEGATIVE,
     )
     escape_horizon: float = param(
         6.0, "s", "escape shaping (whole-body model, unicycle_lateral and holonomic): when the "
