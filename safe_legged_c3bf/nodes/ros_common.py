@@ -150,6 +150,8 @@ def freeze_startup_objects() -> None:
 
 EXECUTOR_VARIABLE = "SAFE_LEGGED_C3BF_EXECUTOR"
 EXECUTORS = ("events", "single")
+DEFAULT_EXECUTOR = "events"
+"""The executor of every node process and of the ``--in-process`` bringup (``make_executor``)."""
 
 
 def make_executor(kind: str | None = None, context: rclpy.Context | None = None):  # noqa: ANN201
@@ -162,7 +164,7 @@ def make_executor(kind: str | None = None, context: rclpy.Context | None = None)
     fallback. ``kind`` None reads ``$SAFE_LEGGED_C3BF_EXECUTOR`` (a ValueError names the
     choices).
     """
-    kind = kind or os.environ.get(EXECUTOR_VARIABLE) or "events"
+    kind = kind or os.environ.get(EXECUTOR_VARIABLE) or DEFAULT_EXECUTOR
     if kind not in EXECUTORS:
         raise ValueError(f"{EXECUTOR_VARIABLE}={kind!r}: choose one of {', '.join(EXECUTORS)}")
     if kind == "single":

@@ -60,7 +60,7 @@ class InProcessLauncher(Launcher):
 
     failure_label = "traceback"
 
-    def __init__(self, run_dir: Path, executor: str = "events") -> None:
+    def __init__(self, run_dir: Path, executor: str) -> None:
         """Nodes log to ``run_dir/logs/in_process.log``; ``executor``: events, single, multi."""
         self.shared_log = run_dir / "logs" / "in_process.log"
         self.executor_kind = executor

@@ -61,13 +61,15 @@ class Launcher(ABC):
 
 def make_launcher(opts: argparse.Namespace, run_dir: Path) -> Launcher:
     """The launcher the command line asks for."""
+    from safe_legged_c3bf.nodes.ros_common import DEFAULT_EXECUTOR, EXECUTOR_VARIABLE
+
+    executor = opts.executor or DEFAULT_EXECUTOR
     if opts.in_process:
         from safe_legged_c3bf.run.in_process import InProcessLauncher
 
-        return InProcessLauncher(run_dir, executor=opts.executor or "events")
-    from safe_legged_c3bf.nodes.ros_common import EXECUTOR_VARIABLE
+        return InProcessLauncher(run_dir, executor=executor)
     from safe_legged_c3bf.run.processes import ProcessLauncher
 
-    os.environ[EXECUTOR_VARIABLE] = opts.executor or "events"  # read by each node's run_node
+    os.environ[EXECUTOR_VARIABLE] = executor  # read by each node's run_node
 
     return ProcessLauncher(run_dir, video=opts.video is not None, verbose=opts.verbose)
