@@ -83,3 +83,45 @@ def test_stops_after_a_step_that_aligns_the_feet():
         schedule.advance(t, feet, command)
     assert schedule.mode is GaitMode.STAND and schedule.steps_taken == 1
     assert schedule.stand_zmp.t0 == pytest.approx(t)
+
+
+def test_the_walk_starts_above_a_threshold_and_a_stop_is_finished_before_a_restart():
+    limits = BipedParams().command
+    command = CommandFilter(limits)
+    command.update(VelocityCommand(vx=0.5 * limits.start_threshold), 0.01)
+    assert not command.moving  # solver noise does not start a walk
+    command.update(VelocityCommand(vx=0.05), 0.01)
+    assert command.moving
+    command.update(VelocityCommand(vx=0.5 * (limits.start_threshold + limits.stop_threshold)), 1.0)
+    assert command.moving  # between the thresholds a walk goes on
+    command.update(VelocityCommand(), 1.0, standing=False)
+    assert not command.moving  # a stop is obeyed at once
+    command.update(VelocityCommand(vx=0.1), 0.01, standing=False)
+    assert not command.moving  # ... and finished: no restart before the robot stands
+    command.update(VelocityCommand(vx=0.1), 0.01, standing=True)
+    assert command.moving
+
+
+def test_a_stand_is_settled_once_the_zmp_is_back_between_the_feet():
+    schedule, command = make_schedule()
+    assert schedule.settled(0.0)  # standing from the start: nothing to wait for
+    command.update(VelocityCommand(yaw_rate=0.01), 0.005)
+    schedule.advance(0.0, standing_feet(), command)
+    assert not schedule.settled(0.0)  # walking
+    command.update(VelocityCommand(), 1.0, standing=False)
+    feet = standing_feet()
+    while schedule.step is not None:
+        t = schedule.step.t_end
+        target = schedule.step.target
+        feet[target.side] = np.array([target.x, target.y, 0.0, target.yaw])
+        schedule.advance(t, feet, command)
+    stop = schedule.gait.stop_double_support
+    assert not schedule.settled(t + 0.5 * stop)
+    assert schedule.settled(t + stop)
+
+
+def test_stop_thresholds_are_validated():
+    with pytest.raises(ValueError, match="stop_threshold"):
+        BipedParams.from_dict({"command": {"stop_threshold": 0.01, "start_threshold": 0.005}})
+    with pytest.raises(ValueError, match="stop_threshold"):
+        BipedParams.from_dict({"command": {"stop_threshold": 0.0}})

@@ -76,3 +76,37 @@ def test_random_commands_do_not_topple_it():
     log, ctrl = simulate(fn, START + 30.0)
     assert not log.fell
     assert ctrl.status.steps_taken > 20
+
+
+def stop_and_go(period: float, duty: float, **command):
+    """Command function: ``command`` for ``duty`` of every ``period`` s, zero the rest."""
+
+    def fn(t):
+        if t < START or ((t - START) / period) % 1.0 >= duty:
+            return VelocityCommand()
+        return VelocityCommand(**command)
+
+    return fn
+
+
+@pytest.mark.parametrize(
+    "command",
+    [{"vx": 0.1}, {"vy": 0.08}, {"yaw_rate": 0.3}],
+    ids=["forward", "sideways", "turning"],
+)
+def test_stop_and_go_commands_do_not_topple_it(command):
+    # A safety filter that holds and releases the robot every 0.9 s: before the stop was
+    # latched (finished and settled before a restart), each of these fell after ~2 s.
+    log, ctrl = simulate(stop_and_go(0.9, 0.3, **command), START + 8.0)
+    assert not log.fell
+    assert ctrl.status.steps_taken >= 4
+
+
+def test_solver_noise_around_zero_leaves_it_standing():
+    # A held robot's filter output hovers at 1e-4 m/s; a walker that started and stopped on
+    # it stepped in place and fell after ~2 s (random biped scenario 28).
+    log, ctrl = simulate(stop_and_go(0.9, 0.5, vx=3e-4), START + 8.0)
+    assert not log.fell
+    assert ctrl.mode == "stand" and ctrl.status.steps_taken == 0
+    w = window(log, START)
+    assert np.linalg.norm(w["position"][-1, :2] - w["position"][0, :2]) < 0.01

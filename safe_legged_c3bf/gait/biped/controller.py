@@ -158,7 +158,7 @@ class BipedZmpController:
         dt = self.control_period
         n_ticks = self._ticks_since_last(t)
         elapsed = n_ticks * dt
-        self.command.update(command, elapsed)
+        self.command.update(command, elapsed, standing=self.schedule.settled(t))
         meas = self.estimator.update(base, q, elapsed)
         if self.schedule.advance(t, meas.feet, self.command):
             self.balance.reanchor(meas, self.schedule.step.zmp_start)

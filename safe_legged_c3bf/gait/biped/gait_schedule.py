@@ -147,6 +147,16 @@ class GaitSchedule:
         """Standing ZMP (2,): midway between the feet's ZMP points (odom, m)."""
         return 0.5 * sum(self.planner.zmp_point(self.footstep(s)) for s in SIDES)
 
+    def settled(self, t: float) -> bool:
+        """True when standing at ``t`` (s) with the ZMP's move back between the feet done.
+
+        A walk starts from a settled stand only: started while the ZMP (and the CoM after it)
+        still moves from the last support foot, the first steps begin off balance.
+        """
+        shift = self.stand_zmp
+        moved = t >= shift.t0 + self.gait.stop_double_support
+        return self.mode is GaitMode.STAND and (moved or np.array_equal(shift.start, shift.end))
+
     def stand_zmp_at(self, times: np.ndarray) -> np.ndarray:
         """Standing ZMP reference (len(times), 2) at ``times`` (s)."""
         return self.stand_zmp.at(times, self.gait.stop_double_support)

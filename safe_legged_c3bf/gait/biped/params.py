@@ -141,6 +141,11 @@ class CommandLimits:
         accel_x: forward acceleration limit of the internal command (m/s^2).
         accel_y: sideways acceleration limit (m/s^2).
         accel_yaw: yaw acceleration limit (rad/s^2).
+        start_threshold: a standing robot starts walking once a commanded component exceeds
+            this (m/s or rad/s); smaller commands (solver noise) leave it standing.
+        stop_threshold: a walking robot stops once every component of the command and of the
+            rate-limited command is below this (m/s or rad/s); the stop is then finished (the
+            feet side by side, standing) before a new command starts a walk.
 
     """
 
@@ -151,9 +156,15 @@ class CommandLimits:
     accel_x: float = 0.3
     accel_y: float = 0.2
     accel_yaw: float = 0.8
+    start_threshold: float = 0.005
+    stop_threshold: float = 0.001
 
     def validate(self) -> None:
         """Raise ValueError on inconsistent values."""
+        _check(
+            0.0 < self.stop_threshold <= self.start_threshold <= 0.05,
+            "need 0 < stop_threshold <= start_threshold <= 0.05",
+        )
         _check(self.vx_min <= 0.0 < self.vx_max, "need vx_min <= 0 < vx_max")
         _check(self.vy_max >= 0 and self.yaw_rate_max >= 0, "vy_max, yaw_rate_max must be >= 0")
         _check(min(self.accel_x, self.accel_y, self.accel_yaw) > 0, "accelerations must be > 0")

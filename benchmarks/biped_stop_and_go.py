@@ -1,0 +1,83 @@
+"""Stop-and-go commands on the biped: how often it falls (no ROS, the test harness).
+
+A safety filter holds and releases the robot: the command is a component at a given size for
+``duty`` of every ``period`` s and zero the rest of it (the 'noise' size, 3e-4 m/s, is what a
+held robot's filter output hovers at). Prints the falls out of the runs, per component.
+
+    .venv/bin/python benchmarks/biped_stop_and_go.py              # 84 runs of 15 s, ~5 min
+    .venv/bin/python benchmarks/biped_stop_and_go.py --duration 8 --periods 0.9
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+sys.path.insert(
+    0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "test")
+)
+
+from biped_harness import BipedSim  # noqa: E402
+
+from safe_legged_c3bf.gait.biped.controller import BipedZmpController  # noqa: E402
+from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand  # noqa: E402
+
+START = 1.0  # s of standing before the first command
+#: component -> command sizes (m/s or rad/s)
+SIZES = {
+    "noise": ("vx", (3e-4,)),
+    "vx": ("vx", (0.02, 0.1, 0.2)),
+    "vy": ("vy", (0.03, 0.08)),
+    "yaw_rate": ("yaw_rate", (0.05, 0.3)),
+}
+DUTIES = (0.3, 0.5, 0.7)
+
+
+def stop_and_go(field: str, size: float, period: float, duty: float):
+    """Command function: ``field`` = ``size`` for ``duty`` of every ``period`` s, else zero."""
+
+    def fn(t: float) -> VelocityCommand:
+        if t < START or ((t - START) / period) % 1.0 >= duty:
+            return VelocityCommand()
+        return VelocityCommand(**{field: size})
+
+    return fn
+
+
+def run_one(field: str, size: float, period: float, duty: float, duration: float):
+    """One run; returns the fall time (s) or None."""
+    sim = BipedSim()
+    try:
+        log = sim.run(BipedZmpController(), duration, stop_and_go(field, size, period, duty))
+    finally:
+        sim.close()
+    return log.fall_time if log.fell else None
+
+
+def main() -> None:
+    """Run the sweep and print the falls."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--duration", type=float, default=15.0, help="sim s per run")
+    parser.add_argument("--periods", default="0.4,0.6,0.9,1.3", help="stop-and-go periods (s)")
+    parser.add_argument("--only", choices=sorted(SIZES), action="append", help="components")
+    opts = parser.parse_args()
+    periods = [float(p) for p in opts.periods.split(",")]
+    total = falls = 0
+    for name in opts.only or list(SIZES):
+        field, sizes = SIZES[name]
+        fell = []
+        for size in sizes:
+            for period in periods:
+                for duty in DUTIES:
+                    t = run_one(field, size, period, duty, opts.duration)
+                    if t is not None:
+                        fell.append(f"{size:g}@{period:g}s/{duty:g}: {t:.1f} s")
+        runs = len(sizes) * len(periods) * len(DUTIES)
+        total, falls = total + runs, falls + len(fell)
+        print(f"{name:9s} falls {len(fell):2d} of {runs:2d}  {'; '.join(fell)}", flush=True)
+    print(f"all       falls {falls:2d} of {total:2d}")
+
+
+if __name__ == "__main__":
+    main()
