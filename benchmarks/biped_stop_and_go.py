@@ -4,7 +4,7 @@ A safety filter holds and releases the robot: the command is a component at a gi
 ``duty`` of every ``period`` s and zero the rest of it (the 'noise' size, 3e-4 m/s, is what a
 held robot's filter output hovers at). Prints the falls out of the runs, per component.
 
-    .venv/bin/python benchmarks/biped_stop_and_go.py              # 84 runs of 15 s, ~5 min
+    .venv/bin/python benchmarks/biped_stop_and_go.py              # 96 runs of 15 s, ~5 min
     .venv/bin/python benchmarks/biped_stop_and_go.py --duration 8 --periods 0.9
 """
 
@@ -18,10 +18,9 @@ sys.path.insert(
     0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "test")
 )
 
-from biped_harness import BipedSim  # noqa: E402
+from biped_harness import BipedSim, stop_and_go  # noqa: E402
 
 from safe_legged_c3bf.gait.biped.controller import BipedZmpController  # noqa: E402
-from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand  # noqa: E402
 
 START = 1.0  # s of standing before the first command
 #: component -> command sizes (m/s or rad/s)
@@ -34,22 +33,12 @@ SIZES = {
 DUTIES = (0.3, 0.5, 0.7)
 
 
-def stop_and_go(field: str, size: float, period: float, duty: float):
-    """Command function: ``field`` = ``size`` for ``duty`` of every ``period`` s, else zero."""
-
-    def fn(t: float) -> VelocityCommand:
-        if t < START or ((t - START) / period) % 1.0 >= duty:
-            return VelocityCommand()
-        return VelocityCommand(**{field: size})
-
-    return fn
-
-
 def run_one(field: str, size: float, period: float, duty: float, duration: float):
     """One run; returns the fall time (s) or None."""
+    command_fn = stop_and_go(period, duty, start=START, **{field: size})
     sim = BipedSim()
     try:
-        log = sim.run(BipedZmpController(), duration, stop_and_go(field, size, period, duty))
+        log = sim.run(BipedZmpController(), duration, command_fn)
     finally:
         sim.close()
     return log.fall_time if log.fell else None

@@ -156,6 +156,20 @@ def constant(vx: float = 0.0, vy: float = 0.0, yaw_rate: float = 0.0, start: flo
     return fn
 
 
+def stop_and_go(period: float, duty: float, start: float = 0.0, **command):
+    """Command function: ``command`` for ``duty`` of every ``period`` s from ``start``, else zero.
+
+    A safety filter holding and releasing the robot; ``command`` holds VelocityCommand fields.
+    """
+
+    def fn(t: float) -> VelocityCommand:
+        if t < start or ((t - start) / period) % 1.0 >= duty:
+            return VelocityCommand()
+        return VelocityCommand(**command)
+
+    return fn
+
+
 def random_piecewise(seed: int, limits, hold=(2.0, 6.0), start: float = 1.0):
     """Command function: random piecewise-constant commands inside ``limits``.
 

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from biped_harness import BipedSim, constant, random_piecewise
+from biped_harness import BipedSim, constant, random_piecewise, stop_and_go
 
 from safe_legged_c3bf.gait.biped.controller import BipedZmpController
 from safe_legged_c3bf.gait.biped.params import BipedParams
@@ -78,17 +78,6 @@ def test_random_commands_do_not_topple_it():
     assert ctrl.status.steps_taken > 20
 
 
-def stop_and_go(period: float, duty: float, **command):
-    """Command function: ``command`` for ``duty`` of every ``period`` s, zero the rest."""
-
-    def fn(t):
-        if t < START or ((t - START) / period) % 1.0 >= duty:
-            return VelocityCommand()
-        return VelocityCommand(**command)
-
-    return fn
-
-
 @pytest.mark.parametrize(
     "command",
     [{"vx": 0.1}, {"vy": 0.08}, {"yaw_rate": 0.3}],
@@ -97,7 +86,7 @@ def stop_and_go(period: float, duty: float, **command):
 def test_stop_and_go_commands_do_not_topple_it(command):
     # A safety filter that holds and releases the robot every 0.9 s: before the stop was
     # latched (finished and settled before a restart), each of these fell after ~2 s.
-    log, ctrl = simulate(stop_and_go(0.9, 0.3, **command), START + 8.0)
+    log, ctrl = simulate(stop_and_go(0.9, 0.3, start=START, **command), START + 8.0)
     assert not log.fell
     assert ctrl.status.steps_taken >= 4
 
@@ -105,7 +94,7 @@ def test_stop_and_go_commands_do_not_topple_it(command):
 def test_solver_noise_around_zero_leaves_it_standing():
     # A held robot's filter output hovers at 1e-4 m/s; a walker that started and stopped on
     # it stepped in place and fell after ~2 s (random biped scenario 28).
-    log, ctrl = simulate(stop_and_go(0.9, 0.5, vx=3e-4), START + 8.0)
+    log, ctrl = simulate(stop_and_go(0.9, 0.5, start=START, vx=3e-4), START + 8.0)
     assert not log.fell
     assert ctrl.mode == "stand" and ctrl.status.steps_taken == 0
     w = window(log, START)
