@@ -8,6 +8,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 from test_evaluation import fake_python, make_report  # noqa: F401 - fixture
@@ -23,6 +24,8 @@ from safe_legged_c3bf.evaluation.campaign_state import (
 from safe_legged_c3bf.evaluation.progress import Progress, duration_text
 from safe_legged_c3bf.evaluation.results import read_csv, write_results
 from safe_legged_c3bf.evaluation.runner import Runner, RunSpec, record_from_report
+
+REPO = Path(__file__).resolve().parents[1]
 
 SETTINGS = {"in_process": False, "full_duration": False}
 
@@ -270,6 +273,75 @@ def test_orphan_guard_removes_the_scratch_of_a_dead_owner_whose_run_ended(tmp_pa
     group.wait()
     assert orphan_guard.guard(owner.pid, group.pid, period=0.05, remove=[tmp_path]) is False
     assert not tmp_path.exists()
+
+
+def _link_guard(lines: str, tmp_path):
+    """Run guard() on a link that said ``lines`` and then closed; (result, folder, group)."""
+    folder = tmp_path / "scratch"
+    folder.mkdir()
+    group = subprocess.Popen(["sleep", "60"], start_new_session=True)
+    read_fd, write_fd = os.pipe()
+    os.write(write_fd, lines.format(dir=folder, group=group.pid).encode())
+    os.close(write_fd)  # what the kernel does when the task's worker dies
+    try:
+        return orphan_guard.guard(None, grace=2.0, period=0.05, link=read_fd), folder, group
+    finally:
+        if group.poll() is None:
+            time.sleep(0.5)  # let a stopped sleep be reaped before the caller looks
+        group.poll()
+
+
+def test_orphan_guard_link_closed_without_release_stops_and_removes(tmp_path):
+    stopped, folder, group = _link_guard("dir {dir}\ngroup {group}\n", tmp_path)
+    try:
+        assert stopped is True and not folder.exists()
+        assert group.wait(timeout=5) is not None
+    finally:
+        if group.poll() is None:
+            group.kill()
+
+
+def test_orphan_guard_link_released_touches_nothing(tmp_path):
+    stopped, folder, group = _link_guard("dir {dir}\ngroup {group}\nend\n", tmp_path)
+    try:
+        assert stopped is False and folder.exists() and group.poll() is None
+    finally:
+        group.kill()
+        group.wait()
+
+
+OWNER = """
+import subprocess, sys, tempfile, time
+from safe_legged_c3bf.evaluation.orphan_guard import GuardLink
+link = GuardLink.start(grace=2.0)
+folder = tempfile.mkdtemp(dir=sys.argv[1])
+link.remove_on_orphan(folder)
+group = subprocess.Popen(["sleep", "60"], start_new_session=True)
+link.stop_on_orphan(group.pid)
+print(folder, group.pid, flush=True)
+time.sleep(60)
+"""
+
+
+def test_a_task_killed_just_after_starting_its_bringup_leaves_nothing(tmp_path):
+    """The guard exists before the task's folder and bringup: a kill at any moment is covered.
+
+    (It used to be started after the bringup, so a worker killed in between left both.)
+    """
+    owner = subprocess.Popen([sys.executable, "-c", OWNER, str(tmp_path)], cwd=REPO,
+                             stdout=subprocess.PIPE, text=True)
+    try:
+        folder, pgid = owner.stdout.readline().split()
+        owner.kill()  # at once: the moment the old guard did not exist yet
+        owner.wait()
+        deadline = time.monotonic() + 30.0
+        while ((orphan_guard.group_alive(int(pgid)) or Path(folder).exists())
+               and time.monotonic() < deadline):
+            time.sleep(0.1)
+        assert not orphan_guard.group_alive(int(pgid)) and not Path(folder).exists()
+    finally:
+        if owner.poll() is None:
+            owner.kill()
 
 
 def test_orphan_guard_leaves_a_living_owner_alone():

@@ -1,21 +1,29 @@
 """Stop a bringup's process group and remove its scratch folders once its task's worker is gone.
 
-``python -m safe_legged_c3bf.evaluation.orphan_guard [--detach] OWNER_PID GROUP_PID [GRACE_S
-[DIR ...]]`` watches the process ``OWNER_PID`` (a Ray worker running one evaluation run), the
-process group led by ``GROUP_PID`` (that run's bringup, started in its own session) and the
-folders ``DIR`` (the task's scratch folders, which the worker removes when the task ends).
-If the owner disappears (the worker was killed: its driver died, the task was force-cancelled,
-the node is shutting down), a group still running gets the evaluation runner's escalation
-(:func:`safe_legged_c3bf.run.process_group.stop_groups`: SIGINT, SIGKILL after ``GRACE_S``,
-default 15 s) and the folders are deleted, so neither a bringup nor a scratch folder outlives
-its task. The guard exits once the group is gone and the folders are removed.
+A Ray task starts its guard first, before it creates anything
+(:meth:`GuardLink.start`): a detached process that holds the read end of a pipe whose write
+end only the task's worker holds. Through the link the task then names what the guard must
+clean up if the worker dies: its scratch folders (``dir PATH``) as it creates them and its
+bringup's process group (``group PGID``) as it starts it. If the worker dies (its driver was
+killed, the task was force-cancelled, the node is shutting down), the kernel closes the write
+end; the guard reads end-of-file, gives a group still running the evaluation runner's
+escalation (:func:`safe_legged_c3bf.run.process_group.stop_groups`: SIGINT, SIGKILL after the
+grace, default 15 s) and deletes the folders. A task that ends normally cleans up itself and
+releases the guard (``end``). Nothing the task creates exists before its guard does, so no
+moment of a task's life leaves a bringup or a folder behind.
 
-``--detach`` starts the guard in a new session whose parent exits at once: Ray kills the
-children of a worker it kills, and the guard must not be one of them.
+The guard is detached (a new session whose starter exits at once): Ray kills the children
+of a worker it kills, and the guard must not be one of them.
+
+``python -m safe_legged_c3bf.evaluation.orphan_guard [--detach] OWNER_PID GROUP_PID [GRACE_S
+[DIR ...]]`` is the same guard for a group and folders that exist already, watching the
+process ``OWNER_PID`` instead of a link; ``--fd N`` (instead of the two pids) reads a link.
 """
 
 from __future__ import annotations
 
+import os
+import select
 import shutil
 import signal
 import subprocess
@@ -30,6 +38,8 @@ MODULE = "safe_legged_c3bf.evaluation.orphan_guard"
 #: Seconds between two looks at the owner and the group.
 POLL_PERIOD = 0.5
 DEFAULT_GRACE = 15.0
+#: Seconds the guard keeps retrying to remove a folder something still writes into.
+REMOVE_PATIENCE = 10.0
 
 
 def _stat(pid: int | str) -> list[str] | None:
@@ -70,56 +80,182 @@ class _Group:
         return None if group_alive(self.pid) else 0
 
 
-def guard(owner: int, group: int, grace: float = DEFAULT_GRACE,
-          period: float = POLL_PERIOD, remove: Sequence[str | Path] = ()) -> bool:
-    """Watch (see the module docstring); True if the group had to be stopped."""
-    target = _Group(group)
-    folders = [Path(f) for f in remove]
-    while target.poll() is None or any(f.exists() for f in folders):
-        if not process_alive(owner):
-            stopped = target.poll() is None
-            if stopped:
-                stop_groups([target], [(time.monotonic() + grace, signal.SIGKILL)])
-                deadline = time.monotonic() + 5.0  # SIGKILLed processes take a moment
-                while target.poll() is None and time.monotonic() < deadline:
-                    time.sleep(0.05)
-            for folder in folders:
-                shutil.rmtree(folder, ignore_errors=True)
-            return stopped
-        time.sleep(period)
-    return False
+class _Watch:
+    """What a guard cleans up, and what it has heard from its link (if any)."""
+
+    def __init__(self, groups: Sequence[int], folders: Sequence[str | Path],
+                 link: int | None) -> None:
+        self.groups = [_Group(g) for g in groups]
+        self.folders = [Path(f) for f in folders]
+        self.link = link
+        self.released = False  # the task ended normally
+        self.orphaned = False  # the link's write end closed without a release
+        self._partial = b""
+
+    def busy(self) -> bool:
+        """Without a link: True while a group runs or a folder exists."""
+        return (any(g.poll() is None for g in self.groups)
+                or any(f.exists() for f in self.folders))
+
+    def listen(self, timeout: float) -> None:
+        """Wait up to ``timeout`` s for the link and apply what it says."""
+        if self.link is None:
+            time.sleep(timeout)
+            return
+        ready, _, _ = select.select([self.link], [], [], timeout)
+        if not ready:
+            return
+        try:
+            data = os.read(self.link, 65536)
+        except OSError:
+            data = b""
+        if not data:
+            self.orphaned = not self.released
+            os.close(self.link)
+            self.link = None
+            return
+        *lines, self._partial = (self._partial + data).split(b"\n")
+        for line in lines:
+            self._apply(line.decode(errors="replace"))
+
+    def _apply(self, line: str) -> None:
+        word, _, value = line.partition(" ")
+        if word == "group" and value.strip().isdigit():
+            self.groups.append(_Group(int(value)))
+        elif word == "dir" and value:
+            self.folders.append(Path(value))
+        elif word == "end":
+            self.released = True
 
 
-def _spawn(args: Sequence[str]) -> subprocess.Popen:
+def _clean_up(watch: _Watch, grace: float) -> bool:
+    """Stop the watched groups still running, remove the folders; True if a group ran."""
+    running = [g for g in watch.groups if g.poll() is None]
+    if running:
+        stop_groups(running, [(time.monotonic() + grace, signal.SIGKILL)])
+        deadline = time.monotonic() + 5.0  # SIGKILLed processes take a moment
+        while any(g.poll() is None for g in running) and time.monotonic() < deadline:
+            time.sleep(0.05)
+    deadline = time.monotonic() + REMOVE_PATIENCE  # a dying process may still write a file
+    while True:
+        for folder in watch.folders:
+            shutil.rmtree(folder, ignore_errors=True)
+        if not any(f.exists() for f in watch.folders) or time.monotonic() > deadline:
+            break
+        time.sleep(0.2)
+    return bool(running)
+
+
+def guard(owner: int | None, group: int | None = None, grace: float = DEFAULT_GRACE,
+          period: float = POLL_PERIOD, remove: Sequence[str | Path] = (),
+          link: int | None = None) -> bool:
+    """Watch (see the module docstring); True if a group had to be stopped.
+
+    ``owner``: pid whose death means "clean up" (None: only the link's end-of-file does).
+    ``link``: read end of a :class:`GuardLink`'s pipe; the guard then runs until the link
+    releases it or closes, whatever is alive. Without a link it ends once the group is gone and
+    the folders are removed.
+    """
+    watch = _Watch([] if group is None else [group], remove, link)
+    while True:
+        if watch.released:
+            return False
+        if watch.orphaned or (owner is not None and not process_alive(owner)):
+            return _clean_up(watch, grace)
+        if link is None and not watch.busy():
+            return False
+        watch.listen(period)
+
+
+def _spawn(args: Sequence[str], pass_fds: Sequence[int] = ()) -> subprocess.Popen:
     """``python -m <this module> ARGS`` in a new session, without inherited stdio."""
     return subprocess.Popen([sys.executable, "-m", MODULE, *args], stdin=subprocess.DEVNULL,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                            start_new_session=True)
+                            start_new_session=True, pass_fds=tuple(pass_fds))
 
 
-def detach(args: Sequence[str]) -> subprocess.Popen:
+def detach(args: Sequence[str], pass_fds: Sequence[int] = ()) -> subprocess.Popen:
     """Start a guard with ``args`` that is no child of this process.
 
     Returns the short-lived intermediate process (wait for it: it exits once the guard runs).
     """
-    return _spawn(["--detach", *args])
+    return _spawn(["--detach", *args], pass_fds)
+
+
+class GuardLink:
+    """The task's end of a detached guard's pipe (see the module docstring).
+
+    Start it before creating anything; tell it each folder right after creating it and each
+    bringup right after starting it; :meth:`release` it once the task has cleaned up.
+    """
+
+    def __init__(self, write_fd: int) -> None:
+        self._fd: int | None = write_fd
+
+    @classmethod
+    def start(cls, grace: float = DEFAULT_GRACE, timeout: float = 60.0) -> GuardLink:
+        """Start a detached guard and return once it runs (OSError if it could not start)."""
+        read_fd, write_fd = os.pipe()
+        try:
+            starter = detach(["--fd", str(read_fd), f"{grace:g}"], pass_fds=[read_fd])
+            try:
+                code = starter.wait(timeout=timeout)
+            except subprocess.TimeoutExpired:
+                starter.kill()
+                raise OSError(f"the orphan guard did not start within {timeout:g} s") from None
+            if code != 0:
+                raise OSError(f"the orphan guard's starter exited with {code}")
+        except BaseException:
+            os.close(write_fd)
+            raise
+        finally:
+            os.close(read_fd)
+        return cls(write_fd)
+
+    def _say(self, line: str) -> None:
+        if self._fd is not None:
+            os.write(self._fd, (line + "\n").encode())
+
+    def remove_on_orphan(self, folder: str | Path) -> None:
+        """The guard deletes ``folder`` if this process dies before :meth:`release`."""
+        self._say(f"dir {folder}")
+
+    def stop_on_orphan(self, pgid: int) -> None:
+        """The guard stops process group ``pgid`` if this process dies before release."""
+        self._say(f"group {pgid}")
+
+    def release(self) -> None:
+        """The task has cleaned up: the guard exits without touching anything."""
+        if self._fd is not None:
+            try:
+                self._say("end")
+            finally:
+                os.close(self._fd)
+                self._fd = None
+
+
+USAGE = ("usage: python -m safe_legged_c3bf.evaluation.orphan_guard [--detach] "
+         "(OWNER_PID GROUP_PID | --fd N) [GRACE_S [DIR ...]]")
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Command-line entry point: 0 when the group ended by itself, 1 if it was stopped."""
+    """Command-line entry point: 0 when nothing had to be stopped, 1 if a group was."""
     args = list(sys.argv[1:] if argv is None else argv)
     if args[:1] == ["--detach"]:  # re-start in a new session and leave it behind
-        _spawn(args[1:])
+        fds = [int(args[2])] if args[1:2] == ["--fd"] and args[2:3] and args[2].isdigit() else []
+        _spawn(args[1:], fds)
         return 0
     try:
-        owner, group = int(args[0]), int(args[1])
-        grace = float(args[2]) if len(args) > 2 else DEFAULT_GRACE
+        if args[:1] == ["--fd"]:
+            owner, group, link, rest = None, None, int(args[1]), args[2:]
+        else:
+            owner, group, link, rest = int(args[0]), int(args[1]), None, args[2:]
+        grace = float(rest[0]) if rest else DEFAULT_GRACE
     except (IndexError, ValueError):
-        print("usage: python -m safe_legged_c3bf.evaluation.orphan_guard [--detach] OWNER_PID "
-              "GROUP_PID [GRACE_S [DIR ...]]", file=sys.stderr)
+        print(USAGE, file=sys.stderr)
         return 2
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C on the terminal is not for us
-    return 1 if guard(owner, group, grace, remove=args[3:]) else 0
+    return 1 if guard(owner, group, grace, remove=rest[1:], link=link) else 0
 
 
 if __name__ == "__main__":

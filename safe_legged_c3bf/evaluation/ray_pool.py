@@ -15,9 +15,10 @@ escalation on its process group and its result row. Per task:
 * **Cancel:** ``ray.cancel`` raises KeyboardInterrupt in the task, and the runner stops the
   bringup's group (SIGINT, SIGKILL after 15 s). If the worker itself dies (its driver was
   killed, a force-cancel, the node stops), Ray kills the worker's children (the bringup; its
-  nodes follow by their parent-death signal) and :mod:`.orphan_guard` (a detached watcher)
-  stops whatever of the group still runs and removes the task's scratch folders, so nothing
-  outlives the task.
+  nodes follow by their parent-death signal) and :mod:`.orphan_guard` (a detached watcher the
+  task starts before it creates anything, told of each folder and of the bringup as they
+  appear) stops whatever of the group still runs and removes the task's scratch folders, so
+  nothing outlives the task, whenever the worker dies.
 * **Results:** the run folder (report.json, logs, time series, figures; 0.5-1 MB) comes back
   to the driver as a tar.gz in the task's return value and is unpacked into
   ``<out>/runs/<run_id>``; with ``shared_dir`` (a folder every node mounts at the same path)
@@ -32,7 +33,6 @@ import io
 import os
 import shutil
 import socket
-import subprocess
 import tarfile
 import tempfile
 import time
@@ -129,34 +129,38 @@ def execute_run(spec_fields: dict[str, Any], scenario_text: str | None, duration
     spec = RunSpec(**spec_fields)
     _mirror_driver_env(options.get("env") or {})
     shared = options.get("shared_dir")
-    base = Path(shared) if shared else Path(tempfile.mkdtemp(prefix="c3bf-run-"))
-    inputs = Path(tempfile.mkdtemp(prefix="c3bf-scenario-"))
-    guards: list[subprocess.Popen] = []
+    guard = orphan_guard.GuardLink.start(grace=STOP_GRACE)  # before anything it must clean up
     try:
-        local = spec
-        if scenario_text is not None:
-            path = inputs / f"{_stem(spec.scenario)}.yaml"
-            path.write_text(scenario_text, encoding="utf-8")
-            local = replace(spec, scenario=str(path))
-        runner = Runner(base, jobs=1, in_process=bool(options.get("in_process")),
-                        full_duration=bool(options.get("full_duration")),
-                        progress=lambda _line: None,
-                        on_start=lambda _spec, proc: guards.append(
-                            _start_guard(proc, [inputs] if shared else [inputs, base])))
-        rec = runner.run([local], {spec.run_id: duration})[0]
-        run_dir = (base / "runs" / spec.run_id).resolve()
-        archive = None if shared else pack(run_dir)
-        return {"row": rec, "archive": archive, "run_dir": str(run_dir),
-                "host": f"{socket.gethostname()}/{_node_id()}"}
+        base = Path(shared) if shared else _scratch("c3bf-run-", guard)
+        inputs = _scratch("c3bf-scenario-", guard)
+        try:
+            local = spec
+            if scenario_text is not None:
+                path = inputs / f"{_stem(spec.scenario)}.yaml"
+                path.write_text(scenario_text, encoding="utf-8")
+                local = replace(spec, scenario=str(path))
+            runner = Runner(base, jobs=1, in_process=bool(options.get("in_process")),
+                            full_duration=bool(options.get("full_duration")),
+                            progress=lambda _line: None,
+                            on_start=lambda _spec, proc: guard.stop_on_orphan(proc.pid))
+            rec = runner.run([local], {spec.run_id: duration})[0]
+            run_dir = (base / "runs" / spec.run_id).resolve()
+            archive = None if shared else pack(run_dir)
+            return {"row": rec, "archive": archive, "run_dir": str(run_dir),
+                    "host": f"{socket.gethostname()}/{_node_id()}"}
+        finally:
+            shutil.rmtree(inputs, ignore_errors=True)
+            if not shared:
+                shutil.rmtree(base, ignore_errors=True)
     finally:
-        for starter in guards:
-            try:
-                starter.wait(timeout=10.0)  # exits as soon as the guard runs
-            except subprocess.TimeoutExpired:
-                pass
-        shutil.rmtree(inputs, ignore_errors=True)  # the guard ends once these are gone
-        if not shared:
-            shutil.rmtree(base, ignore_errors=True)
+        guard.release()
+
+
+def _scratch(prefix: str, guard: orphan_guard.GuardLink) -> Path:
+    """A new temporary folder that ``guard`` removes if this worker dies."""
+    folder = Path(tempfile.mkdtemp(prefix=prefix))
+    guard.remove_on_orphan(folder)
+    return folder
 
 
 def _node_id() -> str:
@@ -180,17 +184,6 @@ def _mirror_driver_env(env: dict[str, str | None]) -> None:
             os.environ.pop(key, None)
         else:
             os.environ[key] = value
-
-
-def _start_guard(proc: subprocess.Popen, scratch: Sequence[Path]) -> subprocess.Popen:
-    """Start the orphan guard of the bringup ``proc`` (watching this worker process).
-
-    If the worker dies, the guard stops the bringup and deletes the folders ``scratch``. It is
-    detached (no child of the worker: Ray kills those with the worker); the returned process
-    is the intermediate that starts it.
-    """
-    return orphan_guard.detach([str(os.getpid()), str(proc.pid), f"{STOP_GRACE:g}",
-                                *(str(p) for p in scratch)])
 
 
 def pack(folder: Path) -> bytes:
