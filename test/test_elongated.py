@@ -31,6 +31,39 @@ def test_the_circles_cover_the_ellipse(a, b, th):
         assert len(idx) == 1 and r[0] == max(a, b)
 
 
+@pytest.mark.parametrize("a, b", [(1.5, 0.1), (3.0, 0.05), (0.6, 0.2), (2.0, 0.3)])
+def test_the_end_circles_hug_the_ellipse_s_ends(a, b):
+    """Each circle covers the ellipse within its cell, not the cell's box: the ends shrink."""
+    _, off, r = ellipse_cover([[a, b]], [0.0])
+    _, box_off, box_r = ellipse_cover([[a, b]], [0.0], fit="box")
+    np.testing.assert_allclose(off, box_off)
+    assert (r <= box_r + 1e-12).all() and r[0] < box_r[0] and r[-1] < box_r[-1]
+    half = a / len(r)
+    # how far the cover reaches beyond the end of the major axis (box cells: hypot(half, b)
+    # - half); both ends alike
+    reach = off[-1, 0] + r[-1] - a
+    assert 0.0 < reach < math.hypot(half, b) - half
+    assert off[0, 0] - r[0] == pytest.approx(-a - reach)
+
+
+def test_a_wall_end_sticks_out_a_centimetre_not_four():
+    """The 3 m x 0.2 m walls of ``quadruped_gap``: 4.3 cm beyond each end with box cells."""
+    _, off, r = ellipse_cover([[1.5, 0.1]], [0.0])
+    assert off[-1, 0] + r[-1] - 1.5 < 0.015
+
+
+def test_the_box_fit_covers_the_rectangle():
+    """Bars' footprints are rectangles: ``fit="box"`` covers their corners too."""
+    a, b = 1.2, 0.15
+    _, off, r = ellipse_cover([[a, b]], [0.0], fit="box")
+    xs, ys = np.meshgrid(np.linspace(-a, a, 121), np.linspace(-b, b, 13))
+    pts = np.stack([xs.ravel(), ys.ravel()], -1)
+    d = np.linalg.norm(pts[:, None, :] - off[None], axis=-1)
+    assert (d <= r[None] + 1e-9).any(axis=1).all()
+    with pytest.raises(ValueError, match="fit"):
+        ellipse_cover([[a, b]], [0.0], fit="circle")
+
+
 def test_a_doorway_between_two_walls_stays_open():
     """Two 3 m walls end to end leave a 0.6 m doorway; one circle each would close it."""
     walls = [

@@ -27,8 +27,14 @@ def _cover(ob):
     k = min(math.ceil(major / half_cell), MAX_CIRCLES)
     axis = ob.orientation + (0.0 if a >= b else 0.5 * math.pi)
     u = np.array([math.cos(axis), math.sin(axis)])
-    return [((-major + (2 * j + 1) * major / k) * u, math.hypot(major / k, minor))
-            for j in range(k)]
+    out = []
+    for j in range(k):
+        ends = np.array([-major + 2 * j * major / k, -major + 2 * (j + 1) * major / k])
+        mid = ends.mean()
+        # farthest point of the ellipse within the cell: on its boundary at one of the ends
+        far = np.hypot(ends - mid, minor * np.sqrt(np.clip(1 - (ends / major) ** 2, 0, 1)))
+        out.append((mid * u, float(far.max())))
+    return out
 
 
 def reference_circles(obstacles, dt, robot_y, width, height, margin, y_margin, yaw, tie):

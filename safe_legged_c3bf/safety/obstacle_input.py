@@ -115,7 +115,7 @@ class ObstacleSet:
         bars = np.flatnonzero(self.plane == int(Plane.HORIZONTAL))
         y_half = 0.5 * self.extent[bars]
         f_index, f_offset, f_radius = ellipse_cover(
-            np.column_stack([x_half[bars], y_half]), np.zeros(bars.size), WALL_BULGE,
+            np.column_stack([x_half[bars], y_half]), np.zeros(bars.size), WALL_BULGE, fit="box",
         )
         # A footprint not elongated enough for a row is one circle of its larger half-size,
         # which covers the ellipse but not the rectangle's corners: grow it to the half-diagonal.
