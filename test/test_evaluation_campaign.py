@@ -310,6 +310,16 @@ def test_orphan_guard_link_released_touches_nothing(tmp_path):
         group.wait()
 
 
+def test_a_link_whose_guard_is_gone_does_not_fail_the_task(tmp_path):
+    read_fd, write_fd = os.pipe()
+    os.close(read_fd)  # the guard died
+    link = orphan_guard.GuardLink(write_fd)
+    link.remove_on_orphan(tmp_path)
+    link.stop_on_orphan(12345)
+    link.release()
+    link.release()  # twice is harmless
+
+
 OWNER = """
 import subprocess, sys, tempfile, time
 from safe_legged_c3bf.evaluation.orphan_guard import GuardLink

@@ -213,8 +213,12 @@ class GuardLink:
         return cls(write_fd)
 
     def _say(self, line: str) -> None:
+        """Send one line; a guard that is gone (a broken pipe) costs the safety net, not the run."""
         if self._fd is not None:
-            os.write(self._fd, (line + "\n").encode())
+            try:
+                os.write(self._fd, (line + "\n").encode())
+            except BrokenPipeError:
+                pass
 
     def remove_on_orphan(self, folder: str | Path) -> None:
         """The guard deletes ``folder`` if this process dies before :meth:`release`."""
