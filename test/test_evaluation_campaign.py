@@ -220,18 +220,23 @@ def test_run_folder_travels_as_bytes(tmp_path):
         "logs", "logs/sim.log", "report.json"]
 
 
-def test_orphan_guard_stops_the_group_of_a_dead_owner(tmp_path):
+def _closed_link(text: str) -> int:
+    """The read end of a pipe that carried ``text`` and whose writer has closed it."""
+    read_fd, write_fd = os.pipe()
+    os.write(write_fd, text.encode())
+    os.close(write_fd)  # what the kernel does when the task's worker dies
+    return read_fd
+
+
+def test_orphan_guard_stops_the_whole_group_of_a_dead_task(tmp_path):
     scratch = tmp_path / "c3bf-run-x"
     (scratch / "runs").mkdir(parents=True)
-    owner = subprocess.Popen(["sleep", "60"])
     group = subprocess.Popen(["sh", "-c", "sleep 60 & sleep 60; wait"], start_new_session=True)
     try:
         time.sleep(0.2)
-        owner.kill()
-        owner.wait()
         t0 = time.monotonic()
-        assert orphan_guard.guard(owner.pid, group.pid, grace=2.0, period=0.05,
-                                  remove=[scratch]) is True
+        link = _closed_link(f"dir {scratch}\ngroup {group.pid}\n")
+        assert orphan_guard.guard(link, grace=2.0, period=0.05) is True
         assert time.monotonic() - t0 < 10.0
         assert not scratch.exists()
         group.wait(timeout=5)
@@ -240,38 +245,15 @@ def test_orphan_guard_stops_the_group_of_a_dead_owner(tmp_path):
             time.sleep(0.05)
         assert not orphan_guard.group_alive(group.pid)
     finally:
-        for proc in (owner, group):
-            if proc.poll() is None:
-                os.killpg(proc.pid, signal.SIGKILL) if proc is group else proc.kill()
+        if group.poll() is None:
+            os.killpg(group.pid, signal.SIGKILL)
 
 
-def test_detached_orphan_guard_cleans_up_after_a_killed_owner(tmp_path):
-    """The guard as a Ray task starts it: detached, so killing its starter's tree spares it."""
-    scratch = tmp_path / "scratch"
-    scratch.mkdir()
-    owner = subprocess.Popen(["sleep", "60"])
-    group = subprocess.Popen(["sleep", "60"], start_new_session=True)
-    try:
-        starter = orphan_guard.detach([str(owner.pid), str(group.pid), "2", str(scratch)])
-        assert starter.wait(timeout=30) == 0
-        owner.kill()
-        owner.wait()
-        deadline = time.monotonic() + 30.0
-        while (group.poll() is None or scratch.exists()) and time.monotonic() < deadline:
-            time.sleep(0.1)
-        assert group.poll() is not None and not scratch.exists()
-    finally:
-        for proc in (owner, group):
-            if proc.poll() is None:
-                proc.kill()
-
-
-def test_orphan_guard_removes_the_scratch_of_a_dead_owner_whose_run_ended(tmp_path):
-    owner = subprocess.Popen(["true"])
-    owner.wait()
+def test_orphan_guard_removes_the_scratch_of_a_dead_task_whose_run_ended(tmp_path):
     group = subprocess.Popen(["true"], start_new_session=True)
     group.wait()
-    assert orphan_guard.guard(owner.pid, group.pid, period=0.05, remove=[tmp_path]) is False
+    link = _closed_link(f"dir {tmp_path}\ngroup {group.pid}\n")
+    assert orphan_guard.guard(link, period=0.05) is False
     assert not tmp_path.exists()
 
 
@@ -280,11 +262,9 @@ def _link_guard(lines: str, tmp_path):
     folder = tmp_path / "scratch"
     folder.mkdir()
     group = subprocess.Popen(["sleep", "60"], start_new_session=True)
-    read_fd, write_fd = os.pipe()
-    os.write(write_fd, lines.format(dir=folder, group=group.pid).encode())
-    os.close(write_fd)  # what the kernel does when the task's worker dies
+    link = _closed_link(lines.format(dir=folder, group=group.pid))
     try:
-        return orphan_guard.guard(None, grace=2.0, period=0.05, link=read_fd), folder, group
+        return orphan_guard.guard(link, grace=2.0, period=0.05), folder, group
     finally:
         if group.poll() is None:
             time.sleep(0.5)  # let a stopped sleep be reaped before the caller looks
@@ -354,11 +334,10 @@ def test_a_task_killed_just_after_starting_its_bringup_leaves_nothing(tmp_path):
             owner.kill()
 
 
-def test_orphan_guard_leaves_a_living_owner_alone():
-    group = subprocess.Popen(["sleep", "0.3"], start_new_session=True)
-    assert orphan_guard.guard(os.getpid(), group.pid, period=0.05) is False
-    assert group.wait(timeout=5) == 0
-    assert orphan_guard.main(["x"]) == 2
+def test_orphan_guard_command_line_needs_a_link():
+    for args in (["x"], ["123", "456"], ["--fd"], ["--fd", "x"], ["--detach", "--fd"],
+                 ["--fd", "3", "2", "extra"]):
+        assert orphan_guard.main(args) == 2, args
 
 
 class FakeRay:

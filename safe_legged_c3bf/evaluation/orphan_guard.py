@@ -13,11 +13,9 @@ releases the guard (``end``). Nothing the task creates exists before its guard d
 moment of a task's life leaves a bringup or a folder behind.
 
 The guard is detached (a new session whose starter exits at once): Ray kills the children
-of a worker it kills, and the guard must not be one of them.
-
-``python -m safe_legged_c3bf.evaluation.orphan_guard [--detach] OWNER_PID GROUP_PID [GRACE_S
-[DIR ...]]`` is the same guard for a group and folders that exist already, watching the
-process ``OWNER_PID`` instead of a link; ``--fd N`` (instead of the two pids) reads a link.
+of a worker it kills, and the guard must not be one of them. Its command line, ``python -m
+safe_legged_c3bf.evaluation.orphan_guard [--detach] --fd N [GRACE_S]``, is for
+:meth:`GuardLink.start`.
 """
 
 from __future__ import annotations
@@ -35,7 +33,7 @@ from pathlib import Path
 from safe_legged_c3bf.run.process_group import signal_group, stop_groups
 
 MODULE = "safe_legged_c3bf.evaluation.orphan_guard"
-#: Seconds between two looks at the owner and the group.
+#: Seconds between two looks at the link.
 POLL_PERIOD = 0.5
 DEFAULT_GRACE = 15.0
 #: Seconds the guard keeps retrying to remove a folder something still writes into.
@@ -48,12 +46,6 @@ def _stat(pid: int | str) -> list[str] | None:
         return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[-1].split()
     except OSError:
         return None
-
-
-def process_alive(pid: int) -> bool:
-    """True while process ``pid`` exists and is not a zombie."""
-    fields = _stat(pid)
-    return fields is not None and fields[0] not in ("Z", "X")
 
 
 def group_alive(pgid: int) -> bool:
@@ -81,26 +73,19 @@ class _Group:
 
 
 class _Watch:
-    """What a guard cleans up, and what it has heard from its link (if any)."""
+    """What a guard cleans up, as its link has told it, and whether the link ended."""
 
-    def __init__(self, groups: Sequence[int], folders: Sequence[str | Path],
-                 link: int | None) -> None:
-        self.groups = [_Group(g) for g in groups]
-        self.folders = [Path(f) for f in folders]
-        self.link = link
+    def __init__(self, link: int) -> None:
+        self.groups: list[_Group] = []
+        self.folders: list[Path] = []
+        self.link: int | None = link
         self.released = False  # the task ended normally
         self.orphaned = False  # the link's write end closed without a release
         self._partial = b""
 
-    def busy(self) -> bool:
-        """Without a link: True while a group runs or a folder exists."""
-        return (any(g.poll() is None for g in self.groups)
-                or any(f.exists() for f in self.folders))
-
     def listen(self, timeout: float) -> None:
         """Wait up to ``timeout`` s for the link and apply what it says."""
         if self.link is None:
-            time.sleep(timeout)
             return
         ready, _, _ = select.select([self.link], [], [], timeout)
         if not ready:
@@ -146,25 +131,18 @@ def _clean_up(watch: _Watch, grace: float) -> bool:
     return bool(running)
 
 
-def guard(owner: int | None, group: int | None = None, grace: float = DEFAULT_GRACE,
-          period: float = POLL_PERIOD, remove: Sequence[str | Path] = (),
-          link: int | None = None) -> bool:
-    """Watch (see the module docstring); True if a group had to be stopped.
+def guard(link: int, grace: float = DEFAULT_GRACE, period: float = POLL_PERIOD) -> bool:
+    """Watch the read end ``link`` of a :class:`GuardLink`'s pipe; True if a group was stopped.
 
-    ``owner``: pid whose death means "clean up" (None: only the link's end-of-file does).
-    ``link``: read end of a :class:`GuardLink`'s pipe; the guard then runs until the link
-    releases it or closes, whatever is alive. Without a link it ends once the group is gone and
-    the folders are removed.
+    Runs until the link releases it (nothing touched) or closes without a release (the
+    worker died: clean up, see the module docstring).
     """
-    watch = _Watch([] if group is None else [group], remove, link)
-    while True:
-        if watch.released:
-            return False
-        if watch.orphaned or (owner is not None and not process_alive(owner)):
+    watch = _Watch(link)
+    while not watch.released:
+        if watch.orphaned:
             return _clean_up(watch, grace)
-        if link is None and not watch.busy():
-            return False
         watch.listen(period)
+    return False
 
 
 def _spawn(args: Sequence[str], pass_fds: Sequence[int] = ()) -> subprocess.Popen:
@@ -238,28 +216,27 @@ class GuardLink:
                 self._fd = None
 
 
-USAGE = ("usage: python -m safe_legged_c3bf.evaluation.orphan_guard [--detach] "
-         "(OWNER_PID GROUP_PID | --fd N) [GRACE_S [DIR ...]]")
+USAGE = "usage: python -m safe_legged_c3bf.evaluation.orphan_guard [--detach] --fd N [GRACE_S]"
 
 
 def main(argv: list[str] | None = None) -> int:
     """Command-line entry point: 0 when nothing had to be stopped, 1 if a group was."""
     args = list(sys.argv[1:] if argv is None else argv)
-    if args[:1] == ["--detach"]:  # re-start in a new session and leave it behind
-        fds = [int(args[2])] if args[1:2] == ["--fd"] and args[2:3] and args[2].isdigit() else []
-        _spawn(args[1:], fds)
-        return 0
+    detach = args[:1] == ["--detach"]
+    rest = args[1:] if detach else args
     try:
-        if args[:1] == ["--fd"]:
-            owner, group, link, rest = None, None, int(args[1]), args[2:]
-        else:
-            owner, group, link, rest = int(args[0]), int(args[1]), None, args[2:]
-        grace = float(rest[0]) if rest else DEFAULT_GRACE
+        if rest[:1] != ["--fd"] or len(rest) > 3:
+            raise ValueError
+        link = int(rest[1])
+        grace = float(rest[2]) if len(rest) > 2 else DEFAULT_GRACE
     except (IndexError, ValueError):
         print(USAGE, file=sys.stderr)
         return 2
+    if detach:  # re-start in a new session and leave it behind
+        _spawn(rest, [link])
+        return 0
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C on the terminal is not for us
-    return 1 if guard(owner, group, grace, remove=rest[1:], link=link) else 0
+    return 1 if guard(link, grace) else 0
 
 
 if __name__ == "__main__":
