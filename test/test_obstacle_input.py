@@ -37,12 +37,15 @@ def _cover(ob):
     return out
 
 
-def reference_circles(obstacles, dt, robot_y, width, height, margin, y_margin, yaw, tie):
+def reference_circles(obstacles, dt, robot_y, width, height, margin, y_margin, yaw, tie_break,
+                      tie_speed=0.0):
     """The per-obstacle loop the vectorised conversion replaced (kept as the reference)."""
     centers, velocities, radii, planes, ids = [], [], [], [], []
     for ob in obstacles:
         c = np.asarray(ob.center, dtype=float) + dt * np.asarray(ob.velocity, dtype=float)
         v = np.asarray(ob.velocity, dtype=float)
+        speed = math.hypot(v[0], v[1])
+        tie = tie_break if tie_speed == 0.0 else tie_break * min(speed / tie_speed, 1.0)
         for off, a in _cover(ob):
             if ob.plane == int(Plane.VERTICAL):
                 right = (math.sin(yaw), -math.cos(yaw))
@@ -83,15 +86,40 @@ def test_vectorised_conversion_matches_the_per_obstacle_loop():
         obs = random_inputs(rng, int(rng.integers(0, 12)), [(0, 1), (0,), (1,)][trial % 3])
         args = (float(rng.uniform(0, 0.3)), float(rng.uniform(-3, 3)), 0.82, 0.12, 0.05, 0.1,
                 float(rng.uniform(-np.pi, np.pi)), float(rng.choice([0.0, 0.03])))
-        expected, ids_e = reference_circles(obs, *args)
+        tie_speed = float(rng.choice([0.0, 0.1, 2.0]))  # 2 m/s: above every speed drawn
+        expected, ids_e = reference_circles(obs, *args, tie_speed)
         for given in (obs, ObstacleSet.from_inputs(obs)):
-            got, ids = to_c3bf_obstacles(given, *args)
+            got, ids = to_c3bf_obstacles(given, *args, tie_break_speed=tie_speed)
             assert ids == ids_e, trial
             assert got.planes_present == expected.planes_present
             for name in ("center", "velocity", "radius", "plane"):
                 np.testing.assert_allclose(getattr(got, name), getattr(expected, name),
                                            rtol=0, atol=1e-15, err_msg=name)
                 assert not getattr(got, name).flags.writeable
+
+
+def test_tie_break_in_proportion_to_speed_spares_static_obstacles():
+    """With a full speed, a static obstacle is neither moved nor grown; a mover is, in full."""
+    still = ObstacleInput("still", 0, np.array([2.0, 0.3, 0.5]), np.zeros(3), np.full(2, 0.2), 1.0)
+    slow = ObstacleInput("slow", 0, np.array([2.0, -0.3, 0.5]), np.array([0.03, -0.04, 0.0]),
+                         np.full(2, 0.2), 1.0)
+    walker = ObstacleInput("walker", 0, np.array([4.0, 0.0, 0.5]), np.array([0.0, 0.4, 0.0]),
+                           np.full(2, 0.2), 1.0)
+    obs = ObstacleSet.from_inputs([still, slow, walker])
+    np.testing.assert_allclose(obs.tie_breaks(0.03, 0.1), [0.0, 0.015, 0.03])
+    np.testing.assert_allclose(obs.tie_breaks(0.03), [0.03] * 3)  # 0: every one in full
+    wall = ObstacleInput("wall", 0, np.array([3.0, 1.0, 0.5]), np.zeros(3), np.array([1.5, 0.1]),
+                         1.0)
+    for given in ([still, slow, walker], [still, slow, walker, wall]):  # both conversion paths
+        circles, ids = to_c3bf_obstacles(given, 0.0, 0.0, 0.0, 0.0, 0.05, 0.1, 0.0, 0.03,
+                                         tie_break_speed=0.1)
+        assert ids[:3] == ["still", "slow", "walker"]
+        np.testing.assert_allclose(circles.center[:3], [[2.0, 0.3], [2.0, -0.315], [4.0, -0.03]])
+        np.testing.assert_allclose(circles.radius[:3], [0.25, 0.265, 0.28])
+        if len(given) == 4:  # the wall's row of circles: not moved, not grown
+            full, _ = to_c3bf_obstacles([wall], 0.0, 0.0, 0.0, 0.0, 0.05, 0.1, 0.0, 0.0)
+            np.testing.assert_allclose(circles.center[3:], full.center)
+            np.testing.assert_allclose(circles.radius[3:], full.radius)
 
 
 def test_obstacle_set_is_validated_once_and_read_only():

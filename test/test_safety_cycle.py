@@ -363,3 +363,68 @@ def test_whole_body_leaves_three_obstacles_without_a_deadlock_turn():
     log, robot = _between_three_obstacles(0.0, "body")
     assert math.hypot(robot.x + 1.03, robot.y - 6.35) < 0.3, (robot.x, robot.y)
     assert min_gap(log) > 0.0
+
+
+def _through_a_doorway(params: FilterParams):
+    """Goal planner -> cycle -> robot from rest towards a 0.6 m doorway between two pillars.
+
+    The doorway (y from -0.1 to 0.5 m at x = 3 m) leaves the A1's cover 4.9 cm a side with
+    the safety margin: less than the tie-break's 6 cm on one side. Returns the robot and its
+    mean y while its base crossed x = 3 m.
+    """
+    from safe_legged_c3bf.planning.reference_planner import (
+        PlannerConfig,
+        ReferencePlanner,
+        RobotPose,
+    )
+
+    planner = ReferencePlanner(PlannerConfig(mode="goal", max_vx=0.4))
+    planner.set_goal(6.0, 0.2)
+    crossing = []
+
+    def reference(t, robot):
+        if abs(robot.x - 3.0) < 0.02:
+            crossing.append(robot.y)
+        return planner.compute(RobotPose(robot.x, robot.y, robot.yaw, robot.z), t)
+
+    pillars = [ScriptedObstacle("right", np.array([3.0, -0.3, 0.5]), semi_axes=(0.2, 0.2)),
+               ScriptedObstacle("left", np.array([3.0, 0.7, 0.5]), semi_axes=(0.2, 0.2))]
+    robot = SimpleRobot(y=0.2, tau=0.15, holonomic=params.model != "unicycle")
+    log = run(SafetyFilterCycle(params), robot, pillars, reference, 25.0)
+    assert min_gap(log) > 0.0
+    assert math.hypot(robot.x - 6.0, robot.y - 0.2) < 0.3, (robot.x, robot.y)
+    return float(np.mean(crossing))
+
+
+@pytest.mark.parametrize("model", ["unicycle", "unicycle_lateral"])
+def test_the_tie_break_as_a_margin_for_movers_leaves_a_doorway_open(model):
+    """With the cone steering choosing sides, static pillars keep no tie-break: it fits through.
+
+    In full on the pillars (tie_break_speed 0) the tie-break closes the doorway and the robot
+    walks round the left pillar; as a margin for movers only, it walks through.
+    """
+    body = FilterParams(body_model="body", model=model, gamma=2.0)
+    assert abs(_through_a_doorway(body.updated(tie_break_speed=0.1)) - 0.2) < 0.05
+    assert _through_a_doorway(body.updated(tie_break_speed=0.0)) > 0.9  # round the left pillar
+
+
+def test_the_tie_break_stays_in_full_without_the_cone_steering():
+    """The single point (and a whole body with the steering off) keeps the tie-break in full:
+    nothing else would choose a side of a static obstacle dead ahead."""
+    for params, steers in [
+        (FilterParams(body_model="body", model="unicycle"), True),
+        (FilterParams(body_model="point", model="unicycle"), False),
+        (FilterParams(body_model="body", model="unicycle", steer_horizon=0.0), False),
+        (FilterParams(body_model="body", model="holonomic"), False),
+    ]:
+        cycle = SafetyFilterCycle(params.updated(tie_break_speed=0.1))
+        assert cycle.shaping.steers is steers
+        pillar = ScriptedObstacle("pillar", np.array([3.0, 0.0, 0.5]))
+        robot = SimpleRobot()
+        out = cycle.step(0.0, VelocityCommand(0.5), 0.0, robot.base_state(0.0),
+                         [pillar.at(0.0)], 0.0)
+        full = SafetyFilterCycle(params.updated(tie_break_speed=0.0)).step(
+            0.0, VelocityCommand(0.5), 0.0, robot.base_state(0.0), [pillar.at(0.0)], 0.0)
+        # h at rest is 0 either way; the clearance tells the circle's size
+        same = math.isclose(out.result.clearance.min(), full.result.clearance.min())
+        assert same is not steers, params

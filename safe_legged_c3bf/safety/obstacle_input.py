@@ -91,7 +91,7 @@ class ObstacleSet:
     semi_axes: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     orientation: np.ndarray = field(default_factory=lambda: np.zeros(0))
     all_round: bool = True
-    _radii: dict = field(default_factory=dict, repr=False)  # inflated radii per parameters
+    _radii: dict = field(default_factory=dict, repr=False)  # radii, tie-breaks per parameters
 
     @cached_property
     def cover(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -131,12 +131,35 @@ class ObstacleSet:
         v.setflags(write=False)
         return c, v
 
-    def vertical_radius(self, robot_width: float, safety_margin: float, tie_break: float):
-        """``size + robot_width / 2 + safety_margin + tie_break`` (cached, read-only)."""
-        key = (robot_width, safety_margin, tie_break)
+    def tie_breaks(self, tie_break: float, full_speed: float = 0.0) -> np.ndarray:
+        """``(n,)`` each obstacle's tie-break [m] (cached, read-only).
+
+        ``tie_break`` in full for every obstacle when ``full_speed`` [m/s] is 0; otherwise in
+        proportion to the obstacle's x-y speed up to ``full_speed``, in full from there on.
+        """
+        key = ("tie_break", tie_break, full_speed)
+        tb = self._radii.get(key)
+        if tb is None:
+            if full_speed > 0.0:
+                speed = np.hypot(self.velocity[:, 0], self.velocity[:, 1])
+                tb = tie_break * np.minimum(speed / full_speed, 1.0)
+            else:
+                tb = np.full(len(self.ids), float(tie_break))
+            tb.setflags(write=False)
+            self._radii[key] = tb
+        return tb
+
+    def vertical_radius(self, robot_width: float, safety_margin: float, tie_break: float,
+                        full_speed: float = 0.0):
+        """``size + robot_width / 2 + safety_margin`` + each one's tie-break (cached, read-only).
+
+        The tie-break as :meth:`tie_breaks` gives it.
+        """
+        key = (robot_width, safety_margin, tie_break, full_speed)
         r = self._radii.get(key)
         if r is None:
-            r = self.size + 0.5 * robot_width + safety_margin + tie_break
+            r = self.size + 0.5 * robot_width + safety_margin + self.tie_breaks(
+                tie_break, full_speed)
             if not np.isfinite(r).all():
                 raise InvalidInputError("inflated obstacle radius overflowed")
             r.setflags(write=False)
@@ -238,6 +261,7 @@ def to_c3bf_obstacles_walled(
     walls: BarWalls | None = None,
     robot_x: float = 0.0,
     t: float | None = None,
+    tie_break_speed: float = 0.0,
 ) -> tuple[Obstacles, list[str], np.ndarray]:
     """Inflated circles for the C3BF filter, predicted ``dt_predict`` s ahead.
 
@@ -260,7 +284,10 @@ def to_c3bf_obstacles_walled(
     exactly zero, so a head-on obstacle can only be braked for (and a faster mover cannot be
     escaped). Each vertical circle is therefore moved ``tie_break`` m to the robot's right and
     grown by ``tie_break``: the new circle encloses the old one (still safe), and the robot
-    consistently passes obstacles on their left.
+    consistently passes obstacles on their left. With ``tie_break_speed`` > 0 [m/s] an
+    obstacle gets the tie-break in proportion to its x-y speed, in full from that speed on
+    (:meth:`ObstacleSet.tie_breaks`): for when something else picks the side of static
+    obstacles (the whole body's cone steering), so that it is a margin for movers only.
 
     ``obstacles`` is best an :class:`ObstacleSet` (validated once); a list of
     :class:`ObstacleInput` is validated on every call. Raises :class:`InvalidInputError` on
@@ -273,12 +300,14 @@ def to_c3bf_obstacles_walled(
     plane = obstacles.plane
     ids = list(obstacles.ids)
     if obstacles.all_vertical and obstacles.all_round:  # pillars, people: fewer operations
-        # (x, y) moved tie_break to the robot's right (sin yaw, -cos yaw).
+        # (x, y) moved each one's tie-break to the robot's right (sin yaw, -cos yaw).
         c2, velocity = obstacles.xy
-        center = (c2 + dt_predict * velocity) + np.array(
-            [tie_break * math.sin(robot_yaw), tie_break * -math.cos(robot_yaw)]
+        tb = obstacles.tie_breaks(tie_break, tie_break_speed)
+        center = (c2 + dt_predict * velocity) + tb[:, None] * np.array(
+            [math.sin(robot_yaw), -math.cos(robot_yaw)]
         )
-        radius = obstacles.vertical_radius(robot_width, safety_margin, tie_break)
+        radius = obstacles.vertical_radius(robot_width, safety_margin, tie_break,
+                                           tie_break_speed)
         if not math.isfinite(center.sum()):  # NaN/Inf anywhere (or an absurd overflow)
             raise InvalidInputError("obstacle prediction overflowed")
         return (Obstacles.from_validated(center, velocity, radius, plane, _VERTICAL), ids,
@@ -303,16 +332,17 @@ def to_c3bf_obstacles_walled(
     if oi.size == 0:
         return Obstacles.empty(), [], _NONE
     v = vertical[oi]
-    # Vertical: (x, y) moved tie_break to the robot's right; bars: (x, z) (see above).
+    tb = np.where(v, obstacles.tie_breaks(tie_break, tie_break_speed)[oi], 0.0)
+    # Vertical: (x, y) moved the tie-break to the robot's right; bars: (x, z) (see above).
     center = np.empty((oi.size, 2))
-    center[:, 0] = c[oi, 0] + off[:, 0] + np.where(v, tie_break * math.sin(robot_yaw), 0.0)
-    center[:, 1] = np.where(v, c[oi, 1] + tie_break * -math.cos(robot_yaw), c[oi, 2]) + off[:, 1]
+    center[:, 0] = c[oi, 0] + off[:, 0] + tb * math.sin(robot_yaw)
+    center[:, 1] = np.where(v, c[oi, 1] - tb * math.cos(robot_yaw), c[oi, 2]) + off[:, 1]
     velocity = np.empty((oi.size, 2))
     velocity[:, 0] = vel[oi, 0]
     velocity[:, 1] = np.where(v, vel[oi, 1], vel[oi, 2])
     radius = np.where(
         v,
-        cover_r + 0.5 * robot_width + safety_margin + tie_break,
+        cover_r + 0.5 * robot_width + safety_margin + tb,
         cover_r + 0.5 * robot_height + safety_margin,
     )
     plane = np.where(v, int(Plane.VERTICAL), int(Plane.HORIZONTAL))

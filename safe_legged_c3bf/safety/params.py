@@ -141,6 +141,13 @@ class FilterParams(TypedParams):
         "and grown by as much, so that dead-ahead obstacles are passed on the left instead of "
         "only braked for (see obstacle_input.to_c3bf_obstacles)", NON_NEGATIVE,
     )
+    tie_break_speed: float = param(
+        0.0, "m/s", "whole body with cone steering (which picks the side of static obstacles) "
+        "only: an obstacle gets the tie-break in proportion to its speed, in full from this "
+        "speed on, a margin for movers (whose velocity the tracker learns late) and not a "
+        "narrowing of doorways between static obstacles; 0: every obstacle in full",
+        NON_NEGATIVE,
+    )
     bar_wall_range: float = param(
         0.0, "m", "a bar is judged passable or not (and walled if not, safety/bar_walls.py) "
         "only while the base is within this horizontal distance of its footprint; farther "

@@ -47,6 +47,12 @@ class ReferenceShaping:
         self.walls = BarWalls.for_body(body, params.min_height, qp_margin,
                                        params.bar_wall_range)
 
+    @property
+    def steers(self) -> bool:
+        """True when the cone steering runs (whole body, unicycle models, a horizon)."""
+        p = self.params
+        return self.body is not None and p.model in TURNING_MODELS and p.steer_horizon > 0.0
+
     def shape(self, t: float, ref_arr: np.ndarray, circles, ids, walled: np.ndarray,  # noqa: ANN001
               pos: np.ndarray, yaw: float, vx_command: float) -> tuple[str, bool]:
         """Shape ``ref_arr`` in place; returns (what was done, escaping).
@@ -77,7 +83,7 @@ class ReferenceShaping:
     def _steer(self, t, ref_arr, circles, mask, pos, yaw, vx_command) -> str:  # noqa: ANN001
         """Cone steering over the circles in ``mask`` (unicycle models); what it did."""
         p = self.params
-        if p.model not in TURNING_MODELS or p.steer_horizon <= 0.0 or not mask.any():
+        if not self.steers or not mask.any():
             return ""
         out = self.steering.steer(
             t, pos, yaw, float(ref_arr[0]), float(ref_arr[3]), circles.center[mask],

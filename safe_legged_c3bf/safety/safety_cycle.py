@@ -163,6 +163,8 @@ class SafetyFilterCycle:
             body=self._body, exit_speed=p.exit_speed,
         )
         self.shaping = ReferenceShaping(p, self._body, self.filter.margin)
+        # Static obstacles' sides: the cone steering's where it picks them, else the tie-break's.
+        self._tie_break_speed = p.tie_break_speed if self.shaping.steers else 0.0
 
     def set_params(self, params: FilterParams) -> None:
         """Replace the parameters (validated) and rebuild the QP."""
@@ -273,7 +275,7 @@ class SafetyFilterCycle:
             circles, ids, walled = to_c3bf_obstacles_walled(
                 obstacles, t - obstacles_time, float(pos[1]), *self._inflation(),
                 p.safety_margin, p.horizontal_y_margin, yaw, p.tie_break, self._bar_half_width,
-                self.shaping.walls, float(pos[0]), t,
+                self.shaping.walls, float(pos[0]), t, self._tie_break_speed,
             )
         except InvalidInputError as err:
             return self._braked(dt, CycleStatus.INVALID_INPUT, f"rejected obstacles: {err}",
