@@ -140,6 +140,21 @@ def test_unicycle_turns_in_place_when_goal_is_behind():
     assert cmd.yaw_rate == pytest.approx(cfg.max_yaw_rate)
 
 
+@pytest.mark.parametrize("kind, walks", [("quadruped", False), ("biped", True)])
+def test_robot_profiles_speed_law_at_a_steered_heading(kind, walks):
+    """70 deg off the goal (where the whole body's steering holds the biped round a pillar):
+    the default speed law stops and turns in place; the biped profile's walks on."""
+    from safe_legged_c3bf.run.parameters import robot_profile
+
+    planner_params = robot_profile(kind).get("reference_planner", {})
+    planner = ReferencePlanner(PlannerConfig(**planner_params))
+    heading = math.radians(70.0)
+    planner.set_goal(3.0 * math.cos(heading), 3.0 * math.sin(heading))
+    cmd = planner.compute(RobotPose(0.0, 0.0, 0.0, 0.3))
+    assert (cmd.vx > 0.0) is walks, cmd
+    assert cmd.yaw_rate > 0.0
+
+
 def test_slows_down_near_goal():
     cfg = PlannerConfig()
     planner = ReferencePlanner(cfg)
