@@ -16,6 +16,7 @@ from safe_legged_c3bf.perception.pose_history import PoseHistory
 from safe_legged_c3bf.perception.self_filter import default_self_box
 from safe_legged_c3bf.perception.sensor_frame import make_frame
 from safe_legged_c3bf.perception.sensor_points import scan_points
+from safe_legged_c3bf.perception.shapes import split_pieces
 from safe_legged_c3bf.perception.track import ObstaclePlane
 
 STAMP = 10.0
@@ -266,6 +267,27 @@ def test_only_a_wall_piece_s_open_ends_are_uncertain_along_the_wall():
     pieces = sorted(vertical(detect([wall])), key=lambda o: o.center[1])
     along = [math.sqrt(o.position_covariance[1, 1]) for o in pieces]
     across = [math.sqrt(o.position_covariance[0, 0]) for o in pieces]
-    assert len(pieces) == 7, along  # cut at y = -1, -0.5, ..., 1.5
+    assert len(pieces) == 9, along  # cut at y = k * 0.354 m, k = -3 ... 4
     assert max(along[1:-1]) < 0.03 and max(across) < 0.03, (along, across)
     assert min(along[0], along[-1]) > 0.12, along
+
+
+def test_wall_pieces_are_cut_where_they_were_when_the_fitted_axis_turns():
+    """A bench's face seen partly (its returns' axis off by ~0.15 rad) is cut on the same odom
+    lines as when the whole face is seen: its inner pieces keep their points (#19: cuts at
+    multiples along the fitted axis moved by 1.2 m x the axis' error and swapped pieces)."""
+    x = np.arange(0.9, 2.4, 0.02)
+    face = np.column_stack([x, np.full_like(x, -1.18)])
+    # returns on the bench's near end, lower down and set back (a partly seen seat)
+    blob = np.column_stack([np.linspace(0.9, 1.3, 40), np.linspace(-1.18, -0.8, 40)])
+    whole = split_pieces(face, 0.5)
+    tilted = split_pieces(np.vstack([face, blob]), 0.5)
+    angle = math.atan2(tilted[0].axis[1], tilted[0].axis[0])
+    assert 0.05 < abs((angle + 0.5 * math.pi) % math.pi - 0.5 * math.pi) < 0.3, angle
+    n = face.shape[0]
+    sets = {tuple(p.index) for p in whole}
+    inner = [tuple(i for i in p.index if i < n) for p in tilted]
+    inner = [m for m in inner if m and min(face[list(m), 0]) > 1.3]  # away from the blob
+    assert len(inner) >= 2
+    for m in inner:
+        assert m in sets, (face[list(m), 0].min(), face[list(m), 0].max())
