@@ -253,7 +253,7 @@ def split_pieces(xy: np.ndarray, max_length: float, depth: int = 0) -> list[Piec
     spacing = max_length / math.sqrt(2.0)
     cell = np.floor(xy[:, dim] / spacing).astype(np.int64)
     normal = np.array([-axis[1], axis[0]])
-    offset = float(np.mean(xy @ normal)) * normal[dim]  # the mid-line's point at s = 0
+    offset = float(np.mean(xy @ normal)) * normal[dim]  # x (or y) of the mid-line at s = 0
     out: list[Piece] = []
     for k in np.unique(cell):  # a few pieces, each handled whole
         members = np.flatnonzero(cell == k)
