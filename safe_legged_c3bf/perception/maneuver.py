@@ -40,9 +40,13 @@ log-determinants) and moment-matched, so that an uncertain onset shows in the co
 kept updates are then dropped: the next test starts from the corrected estimate.
 
 **Noise level**: both thresholds are multiplied by the ratio of the median of the track's last
-``noise_window`` in-plane NIS values to the chi-square median, when it is above one. A
-detection whose jitter exceeds the configured measurement noise (far obstacles, clutter) then
-needs correspondingly more evidence; a consistent track keeps the configured thresholds.
+``noise_window`` in-plane NIS values to the chi-square median, clipped below at
+``noise_scale_min`` (1 by default). A detection whose jitter exceeds the configured
+measurement noise (far obstacles, clutter) then needs correspondingly more evidence. With
+``noise_scale_min`` < 1 a detection steadier than the configured noise (a near obstacle in
+full view of a LiDAR: millimetres, against the 2 cm configured for the worst case) needs
+correspondingly less, down to that floor: the test keeps its false-alarm probability under
+the noise measured instead of the noise configured, and a start shows in fewer updates.
 
 **When**: the test runs once the track's velocity is estimated (the caller says so) and,
 with the noise scaling on, the noise level has been measured on 10 updates: a new track's
@@ -117,7 +121,8 @@ class ManeuverDetector:
     Parameters (see :class:`~safe_legged_c3bf.perception.TrackConfig`, ``maneuver_*``):
     ``false_alarm`` and ``fit_probability`` are chi-square tail probabilities in (0, 1);
     ``window`` >= ``min_updates`` >= 1 are counts of updates; ``velocity_std`` (m/s) > 0;
-    ``noise_window`` >= 0 updates (0: the thresholds are not scaled).
+    ``noise_window`` >= 0 updates (0: the thresholds are not scaled); ``noise_scale_min``
+    in (0, 1], the least factor on the thresholds.
     """
 
     def __init__(
@@ -129,6 +134,7 @@ class ManeuverDetector:
         velocity_std: float = 1.0,
         fit_probability: float = 0.01,
         noise_window: int = 60,
+        noise_scale_min: float = 1.0,
     ) -> None:
         for name, p in (("false_alarm", false_alarm), ("fit_probability", fit_probability)):
             if not (math.isfinite(p) and 0.0 < p < 1.0):
@@ -139,6 +145,9 @@ class ManeuverDetector:
             raise ValueError(f"velocity_std must be finite and > 0, got {velocity_std!r}")
         if int(noise_window) < 0:
             raise ValueError(f"noise_window must be >= 0, got {noise_window!r}")
+        if not (math.isfinite(noise_scale_min) and 0.0 < noise_scale_min <= 1.0):
+            raise ValueError(f"noise_scale_min must be in (0, 1], got {noise_scale_min!r}")
+        self.noise_scale_min = float(noise_scale_min)
         self.threshold = float(chi2.isf(false_alarm, _DOF))
         self.fit_threshold = float(chi2.isf(fit_probability, _DOF))
         self.min_updates = int(min_updates)
@@ -152,10 +161,14 @@ class ManeuverDetector:
 
     @property
     def noise_scale(self) -> float:
-        """Factor (>= 1) on both thresholds: the track's median NIS over the chi-square one."""
+        """Factor on both thresholds: the median NIS over the chi-square one, >= noise_scale_min.
+
+        1 until the noise is measured.
+        """
         if not self._noise_measured:
             return 1.0
-        return max(1.0, float(np.median(self._noise)) / float(chi2.median(_DOF)))
+        ratio = float(np.median(self._noise)) / float(chi2.median(_DOF))
+        return max(self.noise_scale_min, ratio)
 
     @property
     def _noise_measured(self) -> bool:

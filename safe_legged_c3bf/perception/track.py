@@ -263,6 +263,13 @@ class TrackConfig(TypedParams):
         "scales the manoeuvre thresholds when above one (detections noisier than "
         "measurement_std); 0 disables the scaling", at_least(0),
     )
+    maneuver_noise_scale_min: float = param(
+        1.0, "-", "least factor (unitless) on the manoeuvre thresholds from the noise level: "
+        "below 1, a track whose detections are steadier than measurement_std (median NIS "
+        "under the chi-square median) is tested with thresholds lowered by that ratio down to "
+        "this floor, so a start is found in fewer updates; 1: never below the configured ones",
+        interval(0.0, 1.0, closed_high=True),
+    )
 
     def __post_init__(self) -> None:
         """Validate the parameters (raises ``ValueError`` naming the bad one)."""
@@ -292,6 +299,7 @@ class TrackConfig(TypedParams):
             velocity_std=self.maneuver_velocity_std,
             fit_probability=self.maneuver_fit_probability,
             noise_window=self.maneuver_noise_window,
+            noise_scale_min=self.maneuver_noise_scale_min,
         )
 
 
