@@ -21,7 +21,7 @@ from safe_legged_c3bf.safety.escape import EscapeShaping
 from safe_legged_c3bf.safety.input_bounds import yaw_rate_only_decays
 from safe_legged_c3bf.safety.params import FilterParams
 from safe_legged_c3bf.safety.safety_cycle import SafetyFilterCycle
-from safe_legged_c3bf.safety.velocity_obstacles import first_contact_times
+from safe_legged_c3bf.safety.velocity_obstacles import closest_clearances, first_contact_times
 
 LIMITS = (0.2, 0.1, 0.08)  # the biped's forward, reverse and side-step speeds [m/s]
 
@@ -53,6 +53,21 @@ def test_first_contact_times_match_sampling():
         assert times[k] == pytest.approx(expected, abs=2e-3)
 
 
+def test_closest_clearances_match_sampling():
+    rng = np.random.default_rng(4)
+    p = rng.uniform(-2.0, 2.0, (5, 2))
+    w = rng.uniform(-0.5, 0.5, (5, 2))
+    radius = rng.uniform(0.2, 0.6, 5)
+    vel = rng.uniform(-0.5, 0.5, (30, 2))
+    got = closest_clearances(vel, p, w, radius, 4.0)
+    ts = np.arange(0.0, 4.0 + 1e-9, 1e-3)
+    for k in range(len(vel)):
+        rel = p[None] + ts[:, None, None] * (w - vel[k])[None]  # (t, m, 2)
+        expected = (np.linalg.norm(rel, axis=-1) - radius).min()
+        assert got[k] == pytest.approx(expected, abs=1e-6)
+    assert np.isinf(closest_clearances(vel, p[:0], w[:0], radius[:0], 4.0)).all()
+
+
 def test_a_pair_in_contact_counts_only_while_it_closes_in():
     p, w, r = np.array([[0.2, 0.0]]), np.zeros((1, 2)), np.array([0.3])
     closing = first_contact_times(np.array([[0.1, 0.0]]), p, w, r, 5.0)
@@ -78,6 +93,20 @@ def test_a_head_on_walker_is_escaped_away_and_aside_within_the_limits():
     assert out.vx <= 1e-9, "never towards the walker"
     assert -LIMITS[1] - 1e-9 <= out.vx and abs(out.vy) <= LIMITS[2] + 1e-9
     assert abs(out.vy) > 0.05, "it steps aside: backing alone is slower than the walker"
+
+
+def test_a_robot_already_touching_a_walker_coming_at_it_steps_out_of_its_path():
+    """Random biped seed 11 with sensors: the walker was known to move only once the biped's
+    cover touched its circle. Every velocity then met it at once (first contact 0 s), and the
+    tie went to the velocity nearest the forward reference: forward and sideways, into the
+    walker's path. Among equals the stage now keeps the most clearance at closest approach."""
+    stage = _stage()
+    # the walker 0.05 m to the left of the robot's line, already within contact distance
+    centres, vel, radii = np.array([[0.45, 0.05]]), np.array([[-0.24, 0.0]]), np.array([0.30])
+    out = stage.shape((0.0, 0.0), 0.0, (0.19, 0.0), centres, vel, radii, LIMITS)
+    assert out is not None and out.contact_time == 0.0
+    assert out.vx <= 1e-9, "never towards the walker"
+    assert out.vy < -0.05, "to the right: out of the walker's path"
 
 
 def test_a_clear_escape_is_the_one_nearest_the_reference():

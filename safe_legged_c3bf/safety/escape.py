@@ -18,7 +18,9 @@ This stage, in front of the QP (after the cone steering), looks ahead instead:
   heading, the one whose straight path keeps the cover clear of every vertical obstacle over
   ``horizon`` and is nearest the reference; if none is clear, among those that move no cover
   point towards a mover (the barrier would refuse that), the one whose first contact comes
-  latest.
+  latest, and among equals (a cover already touching a mover's circle: every velocity slower
+  than the mover meets it at once) the one whose closest approach over ``horizon`` keeps the
+  most clearance: out of the mover's path, not along it.
 * The safety cycle makes it the reference with yaw rate 0, tracked at full acceleration, and
   lets the QP's yaw rate only decay while it escapes (``safety_cycle``): the retreat and the
   side-step add up instead of cancelling.
@@ -39,7 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from safe_legged_c3bf.safety.velocity_obstacles import first_contact_times
+from safe_legged_c3bf.safety.velocity_obstacles import closest_clearances, first_contact_times
 
 __all__ = ["MOVER_SPEED", "Escape", "EscapeShaping"]
 
@@ -125,11 +127,13 @@ class EscapeShaping:
             j = int(np.argmin(np.where(clear, deviation, np.inf)))
             return Escape(float(body[j, 0]), float(body[j, 1]), math.inf)
         # None clear: the latest first contact among the velocities that move no cover point
-        # towards a mover (the barrier would refuse those), the nearer the reference among
-        # equals. The zero velocity always qualifies.
+        # towards a mover (the barrier would refuse those); among equals (all at 0 when the
+        # cover already touches a mover's circle) the most clearance at the closest approach,
+        # then the nearer the reference. The zero velocity always qualifies.
         towards = np.einsum("kd,cnd->kcn", world, rel[:, movers]) > 1e-9
         keep = np.nonzero(~towards.any(axis=(1, 2)))[0]
-        j = int(keep[np.lexsort((deviation[keep], -times[keep]))[0]])
+        closest = closest_clearances(world[keep], p, pair_w, pair_r, self.horizon)
+        j = int(keep[np.lexsort((deviation[keep], -closest, -times[keep]))[0]])
         return Escape(float(body[j, 0]), float(body[j, 1]), float(times[j]))
 
     def _candidates(self, forward: float, reverse: float, lateral: float) -> np.ndarray:

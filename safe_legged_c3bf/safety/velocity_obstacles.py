@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["first_contact_times"]
+__all__ = ["closest_clearances", "first_contact_times"]
 
 
 def first_contact_times(vel, p, w, radius, horizon: float) -> np.ndarray:
@@ -44,3 +44,23 @@ def first_contact_times(vel, p, w, radius, horizon: float) -> np.ndarray:
     t = np.where(gap <= 0.0, np.where(closing, 0.0, np.inf), t)
     t[~(t <= horizon)] = np.inf  # (NaN too)
     return t.min(axis=1) if t.shape[1] else np.full(len(vel), np.inf)
+
+
+def closest_clearances(vel, p, w, radius, horizon: float) -> np.ndarray:
+    """``(k,)`` least clearance [m] over the pairs and over ``[0, horizon]`` for each velocity.
+
+    For robot velocity ``vel[j]`` and each pair, the distance of closest approach of the
+    centres within the horizon, ``min_t ||p + (w - vel[j]) t||``, minus the contact distance;
+    the least over the pairs (negative: in contact then; ``inf`` without pairs). Arguments as
+    in :func:`first_contact_times`.
+    """
+    if not len(radius):
+        return np.full(len(vel), np.inf)
+    vx = w[:, 0] - vel[:, 0, None]  # (k, m) relative velocity
+    vy = w[:, 1] - vel[:, 1, None]
+    vv = vx * vx + vy * vy
+    pv = p[:, 0] * vx + p[:, 1] * vy
+    t = np.clip(-pv / np.where(vv > 1e-12, vv, 1.0), 0.0, horizon)  # time of closest approach
+    dx = p[:, 0] + vx * t
+    dy = p[:, 1] + vy * t
+    return (np.sqrt(dx * dx + dy * dy) - radius).min(axis=1)
