@@ -25,7 +25,7 @@ from safe_legged_c3bf.c3bf import (
 from safe_legged_c3bf.c3bf import osqp_qp as qp_mod
 from safe_legged_c3bf.c3bf.dense_relaxed_qp import DenseRelaxedQPs
 from safe_legged_c3bf.c3bf.domain import REF_RATIO_MAX
-from safe_legged_c3bf.c3bf.inside import escape_directions, radial_terms
+from safe_legged_c3bf.c3bf.inside import radial_terms
 from safe_legged_c3bf.c3bf.lie import PLANE_AXES
 from safe_legged_c3bf.c3bf.solver_status import OSQP_STATUS_WORDS, describe_osqp_status
 
@@ -326,42 +326,6 @@ def test_a_robot_not_leaving_brakes_and_backs_out():
         away = np.array(x[:2]) - [0.3, 0.0]
         if np.linalg.norm(away) > 0:
             assert r.u_safe @ away > 0, name  # accelerates away from the centre
-
-
-def test_the_escape_from_a_centre_coming_at_the_robot_leaves_its_path():
-    """Random biped seed 11: a walker at 0.24 m/s came at the biped (reverse 0.1 m/s); backing
-    away from its centre ran along its path. The escape now steps out of the path."""
-    # centre 0.3 m ahead (+x) and 0.1 m to the left (+y) of the body point, coming along -x
-    d = escape_directions([[0.3, 0.1]], [[0.0, 0.0]], [[-0.24, 0.0]])
-    np.testing.assert_allclose(d, [[0.0, -1.0]], atol=1e-12)  # to the right: out of its path
-    # a centre at rest, or moving away, or across away from the body point: radially away
-    for v in ([0.0, 0.0], [0.24, 0.0], [0.0, 0.3]):
-        d = escape_directions([[0.3, 0.1]], [[0.0, 0.0]], [v])
-        np.testing.assert_allclose(d, [[-0.3, -0.1]] / np.hypot(0.3, 0.1), atol=1e-12)
-    # exactly on its path: the side the body point already moves to, else the mover's left
-    np.testing.assert_allclose(
-        escape_directions([[0.3, 0.0]], [[0.0, -0.05]], [[-0.24, 0.0]]), [[0.0, -1.0]])
-    np.testing.assert_allclose(
-        escape_directions([[0.3, 0.0]], [[0.0, 0.0]], [[-0.24, 0.0]]), [[0.0, -1.0]])
-    np.testing.assert_allclose(
-        escape_directions([[0.3, 0.0]], [[0.0, 0.05]], [[-0.24, 0.0]]), [[0.0, 1.0]])
-    # exactly at a centre at rest: back off along -V
-    np.testing.assert_allclose(
-        escape_directions([[0.0, 0.0]], [[0.2, 0.0]], None), [[-1.0, 0.0]])
-
-
-def test_a_robot_inside_a_walker_coming_at_it_steps_aside_rather_than_back():
-    """Inside the circle of a walker coming head-on, slightly off its path: the escape input
-    accelerates the holonomic robot mostly sideways, away from the path, not backwards."""
-    walker = Obstacles.vertical([[0.3, 0.05]], [0.5], velocity=[[-0.24, 0.0]])
-    flt = SafetyFilter(HolonomicModel(), u_min=[-2, -2], u_max=[2, 2])
-    r = flt.filter([0.0, 0.0, 0.0, 0.0], [0.0, 0.0], walker, yaw=0.0)
-    assert r.status is FilterStatus.EMERGENCY and "not leaving" in r.message
-    assert r.u_safe[1] < 0.0 and abs(r.u_safe[1]) > 10 * abs(r.u_safe[0])
-    # the same centre at rest: straight away from it, mostly backwards
-    still = Obstacles.vertical([[0.3, 0.05]], [0.5])
-    r = flt.filter([0.0, 0.0, 0.0, 0.0], [0.0, 0.0], still, yaw=0.0)
-    assert r.u_safe[0] < 0.0 and abs(r.u_safe[0]) > 5 * abs(r.u_safe[1])
 
 
 def test_exit_speed_keeps_a_slow_leaver_leaving():

@@ -441,7 +441,7 @@ class SafetyFilter:
         deepest = idx[int(np.argmin(terms.clearance[idx]))]  # its point escapes (whole body)
         u = escape_input(
             rows_of(kin, deepest), rad.p_rel, obs.plane[idx], brake_u, self.brake_gain,
-            self.escape_accel, velocity=obs.velocity[idx],
+            self.escape_accel,
         )
         if not np.isfinite(u).all():
             u = self._brake(x, yaw)

@@ -37,11 +37,7 @@ kinematics of each model (the tests check ``Lf b``, ``Lg b`` against finite diff
 The filter uses the radial constraint only while the robot is leaving every circle it is
 inside (``b > 0`` for each): it then solves its usual QP with these rows. Otherwise (at
 rest, or moving deeper into one of them) it takes the escape action: brake and accelerate
-the body point away from those centres (:func:`escape_input`). Away from a *moving* centre
-that comes towards the body point means away from its path, not along it: a legged robot
-backs away at 0.1-0.3 m/s and no slower robot outruns a walker coming at it, but it can step
-out of the walker's way. So the direction away from such a centre is the radial one with its
-component along the centre's velocity removed (the side of its path the body point is on).
+the body point away from those centres (:func:`escape_input`).
 """
 
 from __future__ import annotations
@@ -60,7 +56,6 @@ __all__ = [
     "INSIDE_REL_CLEARANCE",
     "InsideRows",
     "RadialTerms",
-    "escape_directions",
     "escape_input",
     "inside_rows",
     "radial_terms",
@@ -175,15 +170,14 @@ def inside_rows(
 
 
 def escape_input(
-    kin: PointKinematics, p_rel, plane, brake_u, brake_gain: float, escape_accel: float,
-    velocity=None,
+    kin: PointKinematics, p_rel, plane, brake_u, brake_gain: float, escape_accel: float
 ) -> np.ndarray:
     """Input that brakes and accelerates the body point away from the centres it is inside.
 
     Desired body-point acceleration ``-brake_gain V + escape_accel * away`` (``away``: the
-    normalised sum of the unit escape directions of :func:`escape_directions`); realised by
-    the least-squares input, plus ``brake_u`` (the model's brake input) in the null space of
-    ``B``. Unclipped, possibly non-finite.
+    normalised sum of the unit vectors from each centre to the body point; exactly at a
+    centre, back off along ``-V``); realised by the least-squares input, plus ``brake_u``
+    (the model's brake input) in the null space of ``B``. Unclipped, possibly non-finite.
 
     Args:
         kin: Body-point kinematics (unbatched arrays).
@@ -192,15 +186,19 @@ def escape_input(
         brake_u: ``(m,)`` the model's brake input.
         brake_gain: Velocity damping [1/s].
         escape_accel: Acceleration away from the centres [m/s^2].
-        velocity: ``(k, 2)`` the centres' in-plane velocities [m/s]; None: all at rest.
 
     """
     plane_axes = PLANE_AXES[np.asarray(plane, dtype=np.intp)]
+    away_2d = -np.array(p_rel, dtype=float)  # body point minus obstacle centre, in-plane
+    dist = np.linalg.norm(away_2d, axis=1)
     v3 = kin.velocity
-    body_v = np.array([v3[axes] for axes in plane_axes]).reshape(-1, 2)
-    away_2d = escape_directions(p_rel, body_v, velocity)
+    for i in np.flatnonzero(dist < 1e-9):  # exactly at the centre: back off along -V
+        back = -v3[plane_axes[i]]
+        nb = np.linalg.norm(back)
+        away_2d[i] = back / nb if nb > 1e-9 else np.array([-1.0, 0.0])
+        dist[i] = 1.0
     away = np.zeros(3)
-    np.add.at(away, plane_axes, away_2d)
+    np.add.at(away, plane_axes, away_2d / dist[:, None])
     na = np.linalg.norm(away)
     if na > 1e-12:
         away /= na
@@ -209,45 +207,3 @@ def escape_input(
     B_pinv = np.linalg.pinv(B)
     u = B_pinv @ (a_des - kin.accel_drift)
     return u + (np.eye(B.shape[1]) - B_pinv @ B) @ np.asarray(brake_u, dtype=float)
-
-
-def escape_directions(p_rel, body_velocity, velocity=None) -> np.ndarray:
-    """``(k, 2)`` unit in-plane directions in which the body point leaves each circle.
-
-    From a centre at rest or not coming towards the body point: radially away (body point
-    minus centre). From a centre coming towards it (its velocity ``c_dot`` has a positive
-    component along that radial direction): the radial direction minus its component along
-    ``c_dot``, i.e. straight out of the centre's path on the side the body point is on;
-    exactly on the path, the side the body point already moves to across it (its velocity
-    ``V``), else the left of the centre's motion. Exactly at a centre at rest: back off along
-    ``-V`` (``-x`` when at rest too).
-
-    Args:
-        p_rel: ``(k, 2)`` centre minus body point [m].
-        body_velocity: ``(k, 2)`` the body point's in-plane velocity ``V`` in each plane [m/s].
-        velocity: ``(k, 2)`` the centres' in-plane velocities [m/s]; None: all at rest.
-
-    """
-    away = -np.array(p_rel, dtype=float).reshape(-1, 2)  # body point minus obstacle centre
-    V = np.asarray(body_velocity, dtype=float).reshape(-1, 2)
-    c_dot = (np.zeros_like(away) if velocity is None
-             else np.asarray(velocity, dtype=float).reshape(-1, 2))
-    out = np.empty_like(away)
-    for i in range(len(away)):
-        speed = float(np.linalg.norm(c_dot[i]))
-        coming = speed > 1e-9 and float(away[i] @ c_dot[i]) > 0.0
-        if coming:
-            along = c_dot[i] / speed
-            side = away[i] - float(away[i] @ along) * along
-            if np.linalg.norm(side) < 1e-6 * max(float(np.linalg.norm(away[i])), 1e-9):
-                left = np.array([-along[1], along[0]])
-                side = left if float(V[i] @ left) >= 0.0 else -left
-            out[i] = side / np.linalg.norm(side)
-            continue
-        dist = float(np.linalg.norm(away[i]))
-        if dist >= 1e-9:
-            out[i] = away[i] / dist
-            continue
-        nb = float(np.linalg.norm(V[i]))  # exactly at the centre: back off along -V
-        out[i] = -V[i] / nb if nb > 1e-9 else np.array([-1.0, 0.0])
-    return out
