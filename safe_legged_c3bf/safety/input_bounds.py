@@ -39,15 +39,11 @@ def input_bounds(
     for k, j in enumerate(idx):
         lo[k] = max(lo[k], (v_lo[j] - vl[j]) / dt)
         hi[k] = min(hi[k], (v_hi[j] - vl[j]) / dt)
-        # Anti-windup: no further integration in the direction the command leads, except
-        # back towards zero (braking is never held back by a fast measurement: the biped's
-        # measured speed swings +-0.15 m/s within a step, and a band of 0.1 m/s held its
-        # command at 0.1-0.13 m/s forward for a second while it had to back away).
         lead = vl[j] - ml[j]
         if lead > p.windup_band:
-            hi[k] = min(hi[k], max(0.0, -vl[j] / dt))
+            hi[k] = min(hi[k], 0.0)
         elif lead < -p.windup_band:
-            lo[k] = max(lo[k], min(0.0, -vl[j] / dt))
+            lo[k] = max(lo[k], 0.0)
     # Height-range barrier (second order, exponential): min_height <= z <= max_height.
     k_h, vz = p.height_gain, vl[2]
     kz = idx.index(2)

@@ -114,8 +114,7 @@ class FilterParams(TypedParams):
     height_gain: float = param(4.0, "1/s", "gain of the height-range barrier on a_z", POSITIVE)
     windup_band: float = param(
         0.3, "m/s", "largest lead of the command over the measured velocity (rad/s for yaw) "
-        "beyond which integration in the leading direction stops (anti-windup), except "
-        "back towards zero", POSITIVE,
+        "beyond which integration in the leading direction stops (anti-windup)", POSITIVE,
     )
     weights: tuple[float, float, float] = param(
         (1.0, 0.2, 0.5), "-", "unitless QP weights on (a, alpha, a_z) or (a_x, a_y, a_z): a "
