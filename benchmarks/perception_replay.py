@@ -12,10 +12,12 @@ what it would publish, and prints per recording and overall:
   obstacle) against the recording's ``/ground_truth/obstacles``;
 - the tracker's figures of ``tracker_static_speed.py`` on those detections (static
   obstacles' speed: share of track-frames above 0.2 m/s and p95; movers' velocity error
-  median / p90).
+  median / p90), and when true obstacles start moving, how long their tracks take to know it
+  (``start_latencies``: half the true speed along the true velocity; median / p90, s).
 
 Settings: ``--param NAME=VALUE`` overrides a detector node parameter
-(``config/obstacle_detector.yaml``), ``--track NAME=VALUE`` a tracker ``TrackConfig`` field;
+(``config/obstacle_detector.yaml``), ``--track NAME=VALUE`` a tracker ``TrackConfig`` field
+(the tracker starts from the sensors layer, ``config/sensors/obstacle_tracker.yaml``);
 values are read as YAML. The robot kind (sensor mounts) is guessed from the file name
 ("biped" in it, else quadruped); ``--param robot_kind=biped`` sets it. About 5 s per 30 s
 recording.
@@ -35,7 +37,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 from detector_quality import _rows, _t, score  # the same folder: benchmarks/
-from tracker_static_speed import FAST, track_speeds
+from tracker_static_speed import FAST, start_latencies, track_speeds
 
 from safe_legged_c3bf.perception.track import TrackConfig
 from safe_legged_c3bf.perception.tracker import TrackerConfig
@@ -91,6 +93,14 @@ def redetect(path: Path, overrides: dict[str, object]) -> tuple[list, list, np.n
     return published, truth, np.array(odom).reshape(-1, 3)
 
 
+def sensors_track_fields() -> dict[str, object]:
+    """The ``TrackConfig`` fields ``config/sensors/obstacle_tracker.yaml`` sets (sensors)."""
+    path = Path(__file__).resolve().parents[1] / "config" / "sensors" / "obstacle_tracker.yaml"
+    params = yaml.safe_load(path.read_text())["obstacle_tracker"]["ros__parameters"]
+    fields = set(TrackConfig.__dataclass_fields__)
+    return {k: v for k, v in params.items() if k in fields}
+
+
 def _fmt(x: float | None) -> str:
     return "   -" if x is None or not np.isfinite(x) else f"{x:.3f}"
 
@@ -108,21 +118,24 @@ def main() -> int:
     import rclpy
 
     rclpy.init()
-    overrides, track = _assignments(args.param), _assignments(args.track)
+    overrides, track = _assignments(args.param), {**sensors_track_fields(),
+                                                  **_assignments(args.track)}
     tracker = TrackerConfig(track=TrackConfig(**track))
     print(f"detector overrides {overrides or '-'}; tracker overrides {track or '-'}")
     print(f"{'recording':<22} {'frames':>6} {'recall':>6} {'visible':>7} {'centre p50/p90 (m)':>19}"
           f" {'clean':>6} {'static>0.2':>10} {'p95 m/s':>7} {'movers p50/p90 m/s':>19}")
     total = {"pairs": 0, "hits": 0, "visible": 0, "visible_hits": 0, "clean": 0, "frames": 0}
     errors: list[float] = []
-    speeds, movers = [], []
+    speeds, movers, latencies = [], [], []
     try:
         for path in args.recordings:
             published, truth, odom = redetect(path, overrides)
             det = [(_t(m.header.stamp), _rows(m)) for m in published]
             s = score(det, [(t, _rows(m)) for t, m in truth], odom, args)
-            sp, me = track_speeds([(t, m.obstacles) for t, m in truth],
-                                  [(_t(m.header.stamp), m) for m in published], tracker)
+            gt_rows = [(t, m.obstacles) for t, m in truth]
+            det_rows = [(_t(m.header.stamp), m) for m in published]
+            sp, me = track_speeds(gt_rows, det_rows, tracker)
+            latencies.append(start_latencies(gt_rows, det_rows, tracker))
             for key in total:
                 total[key] += s[key]
             errors += s["errors"]
@@ -136,6 +149,11 @@ def main() -> int:
           total["visible_hits"] / max(total["visible"], 1), errors,
           total["clean"] / max(total["frames"], 1), np.concatenate(speeds),
           np.concatenate(movers))
+    lat = np.concatenate(latencies)
+    known = lat[np.isfinite(lat)]
+    print(f"starts of true obstacles: {len(lat)}, known within 3 s {len(known)}; time to know "
+          + (f"median {np.median(known):.2f} s, p90 {np.percentile(known, 90):.2f} s"
+             if len(known) else "-"))
     return 0
 
 

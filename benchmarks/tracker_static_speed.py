@@ -98,6 +98,44 @@ def track_speeds(gt: list, det: list, config: TrackerConfig) -> tuple[np.ndarray
     return np.array(speeds), np.array(errors)
 
 
+def start_latencies(gt: list, det: list, config: TrackerConfig, window: float = 3.0
+                    ) -> np.ndarray:
+    """Seconds from each start of a true vertical obstacle to its track knowing it (NaN: not
+    within ``window`` s).
+
+    A start: the obstacle's true speed goes from below 0.02 m/s to above 0.1 m/s. Known: the
+    nearest confirmed, velocity-estimated track within 0.5 m has half the true speed or more
+    along the true velocity (in x-y). A track seen first while the obstacle moves counts 0.
+    """
+    starts, before = {}, {}
+    for t, truths in gt:
+        for o in truths:
+            speed = math.hypot(o.velocity.x, o.velocity.y)
+            if o.plane == ObstaclePlane.VERTICAL and o.id not in starts \
+                    and before.get(o.id, 1.0) < 0.02 and speed > 0.1:
+                starts[o.id] = t
+            before[o.id] = speed
+    tracker, k, found = MultiObstacleTracker(config), 0, {}
+    for t, message in det:
+        tracker.update(detections_from_msg(message), t)
+        while k + 1 < len(gt) and gt[k + 1][0] <= t:
+            k += 1
+        now = {o.id: o for o in gt[k][1]}
+        for oid, t0 in starts.items():
+            if oid in found or not t0 <= t <= t0 + window or oid not in now:
+                continue
+            o = now[oid]
+            v = np.array([o.velocity.x, o.velocity.y])
+            near = [(math.hypot(tr.center[0] - o.center.x, tr.center[1] - o.center.y), tr)
+                    for tr in tracker.tracks_at(t) if tr.plane == ObstaclePlane.VERTICAL
+                    and tr.velocity_estimated]
+            near = [n for n in near if n[0] < 0.5]
+            if near and np.asarray(min(near, key=lambda n: n[0])[1].velocity)[:2] @ v \
+                    >= 0.5 * float(v @ v):
+                found[oid] = t - t0
+    return np.array([found.get(oid, math.nan) for oid in starts])
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("recordings", nargs="+", type=Path, help="MCAP files")
