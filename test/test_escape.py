@@ -35,12 +35,15 @@ def _head_on(distance: float = 1.1, speed: float = 0.2):
     return np.array([[distance, 0.0]]), np.array([[-speed, 0.0]]), np.array([0.30])
 
 
+def _random_pairs(seed: int, pairs: int, velocities: int):
+    """Random pairs (centre offsets p, obstacle velocities w, contact radii) and velocities."""
+    rng = np.random.default_rng(seed)
+    return (rng.uniform(-2.0, 2.0, (pairs, 2)), rng.uniform(-0.5, 0.5, (pairs, 2)),
+            rng.uniform(0.2, 0.6, pairs), rng.uniform(-0.5, 0.5, (velocities, 2)))
+
+
 def test_first_contact_times_match_sampling():
-    rng = np.random.default_rng(3)
-    p = rng.uniform(-2.0, 2.0, (6, 2))
-    w = rng.uniform(-0.5, 0.5, (6, 2))
-    radius = rng.uniform(0.2, 0.6, 6)
-    vel = rng.uniform(-0.5, 0.5, (40, 2))
+    p, w, radius, vel = _random_pairs(3, 6, 40)
     times = first_contact_times(vel, p, w, radius, 5.0)
     ts = np.arange(0.0, 5.0, 1e-3)
     for k in range(len(vel)):
@@ -54,11 +57,7 @@ def test_first_contact_times_match_sampling():
 
 
 def test_closest_clearances_match_sampling():
-    rng = np.random.default_rng(4)
-    p = rng.uniform(-2.0, 2.0, (5, 2))
-    w = rng.uniform(-0.5, 0.5, (5, 2))
-    radius = rng.uniform(0.2, 0.6, 5)
-    vel = rng.uniform(-0.5, 0.5, (30, 2))
+    p, w, radius, vel = _random_pairs(4, 5, 30)
     got = closest_clearances(vel, p, w, radius, 4.0)
     ts = np.arange(0.0, 4.0 + 1e-9, 1e-3)
     for k in range(len(vel)):
