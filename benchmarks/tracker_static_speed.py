@@ -105,7 +105,8 @@ def start_latencies(gt: list, det: list, config: TrackerConfig, window: float = 
 
     A start: the obstacle's true speed goes from below 0.02 m/s to above 0.1 m/s. Known: the
     nearest confirmed, velocity-estimated track within 0.5 m has half the true speed or more
-    along the true velocity (in x-y). A track seen first while the obstacle moves counts 0.
+    along the true velocity (in x-y). An obstacle already moving in the first ground-truth
+    message has no start; one out of view when it starts counts from its start.
     """
     starts, before = {}, {}
     for t, truths in gt:

@@ -30,10 +30,7 @@ def first_contact_times(vel, p, w, radius, horizon: float) -> np.ndarray:
     """
     # Components apart: no (k, m, 2) temporaries (the cone steering and the escape call this
     # several times per filter cycle). Same arithmetic, in the same order, as the vector form.
-    vx = w[:, 0] - vel[:, 0, None]  # (k, m) relative velocity
-    vy = w[:, 1] - vel[:, 1, None]
-    vv = vx * vx + vy * vy
-    pv = p[:, 0] * vx + p[:, 1] * vy
+    vx, vy, vv, pv = _relative(vel, p, w)
     gap = (p * p).sum(-1) - radius**2  # (m,)
     disc = pv * pv - vv * gap
     moving = vv > 1e-12
@@ -56,11 +53,15 @@ def closest_clearances(vel, p, w, radius, horizon: float) -> np.ndarray:
     """
     if not len(radius):
         return np.full(len(vel), np.inf)
-    vx = w[:, 0] - vel[:, 0, None]  # (k, m) relative velocity
-    vy = w[:, 1] - vel[:, 1, None]
-    vv = vx * vx + vy * vy
-    pv = p[:, 0] * vx + p[:, 1] * vy
+    vx, vy, vv, pv = _relative(vel, p, w)
     t = np.clip(-pv / np.where(vv > 1e-12, vv, 1.0), 0.0, horizon)  # time of closest approach
     dx = p[:, 0] + vx * t
     dy = p[:, 1] + vy * t
     return (np.sqrt(dx * dx + dy * dy) - radius).min(axis=1)
+
+
+def _relative(vel, p, w) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(k, m)`` relative velocity components, its squared norm and its product with ``p``."""
+    vx = w[:, 0] - vel[:, 0, None]
+    vy = w[:, 1] - vel[:, 1, None]
+    return vx, vy, vx * vx + vy * vy, p[:, 0] * vx + p[:, 1] * vy
