@@ -94,9 +94,13 @@ def redetect(path: Path, overrides: dict[str, object]) -> tuple[list, list, np.n
 
 
 def sensors_track_fields() -> dict[str, object]:
-    """The ``TrackConfig`` fields ``config/sensors/obstacle_tracker.yaml`` sets (sensors)."""
-    path = Path(__file__).resolve().parents[1] / "config" / "sensors" / "obstacle_tracker.yaml"
-    params = yaml.safe_load(path.read_text())["obstacle_tracker"]["ros__parameters"]
+    """The ``TrackConfig`` fields the tracker's config files give it with sensors."""
+    from safe_legged_c3bf.run.parameters import config_files, merged_parameters
+    from safe_legged_c3bf.run.supervisor import NodeSpec
+
+    node = "obstacle_tracker"
+    params = merged_parameters(NodeSpec(name=node, module="-",
+                                        params_files=config_files(node, "sensors")))
     fields = set(TrackConfig.__dataclass_fields__)
     return {k: v for k, v in params.items() if k in fields}
 
