@@ -122,10 +122,10 @@ def main() -> int:
     import rclpy
 
     rclpy.init()
-    overrides, track = _assignments(args.param), {**sensors_track_fields(),
-                                                  **_assignments(args.track)}
-    tracker = TrackerConfig(track=TrackConfig(**track))
-    print(f"detector overrides {overrides or '-'}; tracker overrides {track or '-'}")
+    overrides, track = _assignments(args.param), _assignments(args.track)
+    tracker = TrackerConfig(track=TrackConfig(**{**sensors_track_fields(), **track}))
+    print(f"detector overrides {overrides or '-'}; tracker overrides {track or '-'} "
+          "(on the sensors layer)")
     print(f"{'recording':<22} {'frames':>6} {'recall':>6} {'visible':>7} {'centre p50/p90 (m)':>19}"
           f" {'clean':>6} {'static>0.2':>10} {'p95 m/s':>7} {'movers p50/p90 m/s':>19}")
     total = {"pairs": 0, "hits": 0, "visible": 0, "visible_hits": 0, "clean": 0, "frames": 0}
