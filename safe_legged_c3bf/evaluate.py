@@ -40,6 +40,7 @@ from safe_legged_c3bf.evaluation.metrics import attach_overhead
 from safe_legged_c3bf.evaluation.results import write_results as _write_results
 from safe_legged_c3bf.evaluation.runner import Runner, RunSpec
 from safe_legged_c3bf.evaluation.suites import (
+    BODY_MODELS,
     CI_SCENARIO,
     DEFAULT_RANDOM_SEEDS,
     NAMED_SCENARIOS,
@@ -93,11 +94,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-baseline", action="store_true", help="skip the runs without filter")
     p.add_argument("--no-free", action="store_true",
                    help="skip the obstacle-free reference runs (no time-to-goal overhead)")
-    p.add_argument("--compare-body-models", action="store_true",
+    p.add_argument("--compare-body-models", nargs="*", choices=BODY_MODELS, metavar="MODEL",
                    help="run the filter once per body model on the same scenarios and "
                    "seeds, and tabulate them side by side: point (the paper's single body "
                    "point), body (the whole body) and body_lateral (the whole body with "
-                   "model: unicycle_lateral, which may also side-step)")
+                   "model: unicycle_lateral, which may also side-step); all three, or the "
+                   "MODELs named")
     p.add_argument("--perception", choices=PERCEPTION_SOURCES,
                    help="every run's perception: the simulator's oracle detections or the "
                    "obstacle detector on simulated sensors (default: each scenario's own)")
@@ -157,11 +159,11 @@ def main(argv: list[str] | None = None) -> int:
     durations = {s.run_id: float(opts.duration or c.duration)
                  for c in cases for s in specs if s.case == c.case}
     _announce(suite, cases, specs, durations, opts, out)
-    if opts.compare_body_models and not opts.dry_run and not body_model_supported():
+    if opts.compare_body_models is not None and not opts.dry_run and not body_model_supported():
         print("evaluate: --compare-body-models: the installed safety filter has no "
               "'body_model' parameter (safe_legged_c3bf/safety/params.py)", file=sys.stderr)
         return EXIT_USAGE
-    if opts.compare_perception and opts.compare_body_models:
+    if opts.compare_perception and opts.compare_body_models is not None:
         print("evaluate: --compare-perception and --compare-body-models: one comparison at a "
               "time", file=sys.stderr)
         return EXIT_USAGE

@@ -68,3 +68,9 @@ def test_dry_run_lists_the_body_models(tmp_path, capsys):
     assert code == 0
     out = capsys.readouterr().out
     assert all(f"body_model {m}" in out for m in BODY_MODELS) and "5 run(s)" in out
+
+
+def test_compare_runs_only_the_body_models_named(tmp_path):
+    _, specs = plan(tmp_path, "--scenario", "quadruped_gap", "--compare-body-models", "body",
+                    "--no-baseline", "--no-free")
+    assert [(s.run_id, s.body_model) for s in specs] == [("quadruped_gap__body", "body")]

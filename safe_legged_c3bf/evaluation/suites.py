@@ -211,8 +211,8 @@ def plan_runs(cases: list[Case], opts: argparse.Namespace, out: Path, suite: str
             for source in PERCEPTION_SOURCES:
                 specs.append(RunSpec(run_id=f"{c.case}__{source}", scenario=c.scenario,
                                      filter_enabled=True, **{**common, "perception": source}))
-        elif getattr(opts, "compare_body_models", False):
-            for model in BODY_MODELS:
+        elif getattr(opts, "compare_body_models", None) is not None:
+            for model in opts.compare_body_models or BODY_MODELS:
                 path = write_body_model_variant(c.raw, model, out / "scenarios" / (
                     f"{c.case.replace('@', '_')}__{model}.yaml"))
                 specs.append(RunSpec(run_id=f"{c.case}__{model}", scenario=str(path),
