@@ -67,8 +67,11 @@ def test_vertical_obstacle_avoided_with_filter_and_hit_without(obstacle, body_mo
                            "(-0.085) where a row's speed crosses v_eps. A continuous branch "
                            "held the robot backing slowly for 16 s instead (tried)")
     if obstacle.id == "head_on":
-        known_body_failure(request, body_model, "#16: the QP backs up on the cone's other side "
-                           "than the steering chose; the walker reaches the inflated circle")
+        known_body_failure(request, body_model, "#16: inside the walker's cone from the "
+                           "start, the QP keeps h near 0 by turning the front circle sideways; "
+                           "its yaw rate climbs to the limit at ~3 s (RELAXED, h -0.006 below "
+                           "h0 exp(-gamma t)). The turning escape (test_turning_escape) then "
+                           "keeps the cover out of the walker's circle (no EMERGENCY)")
     params = FilterParams(body_model=body_model)
     ref = VelocityCommand(0.5, 0.0, 0.0, 0.0)
     log = run(SafetyFilterCycle(params), SimpleRobot(), [obstacle], ref, 16.0)

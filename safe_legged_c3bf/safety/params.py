@@ -164,12 +164,13 @@ class FilterParams(TypedParams):
         "brakes", NON_NEGATIVE,
     )
     escape_horizon: float = param(
-        6.0, "s", "escape shaping (whole-body model, unicycle_lateral and holonomic): when the "
-        "robot's cover, standing still, would meet a moving obstacle within this time and the "
-        "reference's own path is not clear either, the reference becomes the nearest "
-        "body-frame velocity within the speed limits whose path stays clear over it (none: "
-        "the latest contact, moving no body point towards a mover); heading held, tracked at "
-        "full acceleration (safety/escape.py); 0: off", NON_NEGATIVE,
+        6.0, "s", "escape shaping (whole-body model): when the robot's cover, standing still, "
+        "would meet a moving obstacle within this time and the reference's own path is not "
+        "clear either, the reference becomes the nearest body-frame velocity within the speed "
+        "limits whose path stays clear over it (none: the latest contact, moving no body point "
+        "towards a mover), tracked at full acceleration; heading held for the side-stepping "
+        "models (safety/escape.py), a turn first for the plain unicycle "
+        "(safety/turning_escape.py); 0: off", NON_NEGATIVE,
     )
     steer_lookahead: float = param(
         0.5, "s", "cone steering: the reference heading is yaw + reference yaw rate times "

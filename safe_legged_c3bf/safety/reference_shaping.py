@@ -5,8 +5,9 @@
    a way round a bar across the path is the planner's to find.
 2. **Hold before a walled bar** (``bar_walls``): while the reference's straight path would
    bring the cover into a bar the body cannot duck under, its planar velocity is zero.
-3. **Escape from movers** (``escape``; side-stepping models): when standing still is not safe,
-   the nearest velocity whose straight path stays clear.
+3. **Escape from movers**: when standing still is not safe, the nearest velocity whose
+   straight path stays clear: at the present heading for the side-stepping models
+   (``escape``), after a turn for the plain unicycle (``turning_escape``).
 
 Each stage changes the reference ``(vx, vy, vz, wz)`` (base_link, m/s, rad/s) in place and
 says what it did; the QP still filters the result, so no barrier constraint is weakened and
@@ -25,6 +26,7 @@ from safe_legged_c3bf.safety.bar_walls import BarWalls
 from safe_legged_c3bf.safety.cone_steering import ConeSteering, cover_half_width
 from safe_legged_c3bf.safety.escape import EscapeShaping
 from safe_legged_c3bf.safety.params import LATERAL_MODELS, TURNING_MODELS, FilterParams
+from safe_legged_c3bf.safety.turning_escape import ALIGNED, HEADING_GAIN, TurningEscapeShaping
 
 __all__ = ["ReferenceShaping"]
 
@@ -44,6 +46,7 @@ class ReferenceShaping:
             params.steer_gain, cruise_memory=params.steer_cruise_memory,
         )
         self.escape = EscapeShaping.for_body(body, params.escape_horizon)
+        self.turning_escape = TurningEscapeShaping.for_body(body, params.escape_horizon)
         self.walls = BarWalls.for_body(body, params.min_height, qp_margin,
                                        params.bar_wall_range)
 
@@ -77,7 +80,7 @@ class ReferenceShaping:
         text = self._steer(t, ref_arr, circles, vertical & ~walled, pos, yaw, vx_command)
         if walled.any():
             text += self._hold_before_walls(ref_arr, circles, walled, ids, pos, yaw)
-        escape = self._escaped(ref_arr, circles, vertical, pos, yaw)
+        escape = self._escaped(ref_arr, circles, vertical, pos, yaw, vx_command)
         return text + escape, bool(escape)
 
     def _steer(self, t, ref_arr, circles, mask, pos, yaw, vx_command) -> str:  # noqa: ANN001
@@ -106,11 +109,13 @@ class ReferenceShaping:
         names = sorted({i for i, w in zip(ids, walled.tolist(), strict=True) if w})
         return f" (holding before {', '.join(map(repr, names))}: too low to duck under)"
 
-    def _escaped(self, ref_arr, circles, vertical, pos, yaw) -> str:  # noqa: ANN001
-        """Escape from movers (side-stepping models); what it did ("": none)."""
+    def _escaped(self, ref_arr, circles, vertical, pos, yaw, vx_command) -> str:  # noqa: ANN001
+        """Escape from movers; what it did ("": none)."""
         p = self.params
-        if self.escape is None or p.model not in LATERAL_MODELS:
-            return ""  # the unicycle's way out is a turn, which a held heading would forbid
+        if p.model not in LATERAL_MODELS:
+            return self._turned_escape(ref_arr, circles, vertical, pos, yaw, vx_command)
+        if self.escape is None:
+            return ""
         out = self.escape.shape(
             pos, yaw, ref_arr[:2], circles.center[vertical], circles.velocity[vertical],
             circles.radius[vertical], (p.max_speed, p.max_reverse_speed, p.max_lateral_speed),
@@ -120,3 +125,22 @@ class ReferenceShaping:
         ref_arr[0], ref_arr[1], ref_arr[3] = out.vx, out.vy, 0.0
         ahead = "none" if math.isinf(out.contact_time) else f"{out.contact_time:.1f} s"
         return f" (escaping a mover: {out.vx:+.2f}, {out.vy:+.2f} m/s; contact ahead {ahead})"
+
+    def _turned_escape(self, ref_arr, circles, vertical, pos, yaw, vx_command) -> str:  # noqa: ANN001
+        """The plain unicycle's escape: turn towards the new heading, then go."""
+        p = self.params
+        if self.turning_escape is None:
+            return ""
+        out = self.turning_escape.shape(
+            pos, yaw, float(ref_arr[0]), vx_command, circles.center[vertical],
+            circles.velocity[vertical], circles.radius[vertical],
+            (p.max_speed, p.max_reverse_speed, p.max_yaw_rate, p.max_yaw_accel),
+        )
+        if out is None:
+            return ""
+        turn = min(max(HEADING_GAIN * out.heading, -p.max_yaw_rate), p.max_yaw_rate)
+        ref_arr[0] = out.vx if abs(out.heading) <= ALIGNED else 0.0
+        ref_arr[1], ref_arr[3] = 0.0, turn
+        ahead = "none" if math.isinf(out.contact_time) else f"{out.contact_time:.1f} s"
+        return (f" (escaping a mover: turn {math.degrees(out.heading):+.0f} deg, then "
+                f"{out.vx:+.2f} m/s; contact ahead {ahead})")

@@ -373,7 +373,7 @@ class SafetyFilterCycle:
                       and self._deadlock_turn(t, ref_arr, circles, pos, yaw))
         state, u_ref, idx = self._model_problem(ref_arr, pos, yaw, 1.0 / dt if escape else None)
         u_min, u_max = self._bounds(v, measured, float(pos[2]), dt, idx, float(ref_arr[0]))
-        if escape:
+        if escape and p.model in LATERAL_MODELS:  # (the plain unicycle's escape turns)
             yaw_rate_only_decays(u_min, u_max, float(v[3]), dt, idx)
         u_ref_clipped = np.minimum(np.maximum(u_ref, u_min), u_max)  # np.clip, less overhead
         try:

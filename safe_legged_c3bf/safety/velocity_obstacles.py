@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["closest_clearances", "first_contact_times"]
+__all__ = ["closest_clearances", "closest_clearances_batched", "contact_times_batched",
+           "first_contact_times"]
 
 
 def first_contact_times(vel, p, w, radius, horizon: float) -> np.ndarray:
@@ -31,7 +32,28 @@ def first_contact_times(vel, p, w, radius, horizon: float) -> np.ndarray:
     # Components apart: no (k, m, 2) temporaries (the cone steering and the escape call this
     # several times per filter cycle). Same arithmetic, in the same order, as the vector form.
     vx, vy, vv, pv = _relative(vel, p, w)
-    gap = (p * p).sum(-1) - radius**2  # (m,)
+    t = _contact_times(vv, pv, (p * p).sum(-1) - radius**2, horizon)
+    return t.min(axis=1) if t.shape[1] else np.full(len(vel), np.inf)
+
+
+def contact_times_batched(vel, p, w, radius, horizon) -> np.ndarray:
+    """:func:`first_contact_times` for ``B`` batches at once: ``(B, k)`` times [s].
+
+    ``vel`` ``(B, k, 2)``, ``p`` ``(B, m, 2)`` (each batch its own cover position), ``w``
+    ``(m, 2)``, ``radius`` ``(m,)``; ``horizon`` [s] a scalar or ``(B,)``.
+    """
+    vx, vy, vv, pv = _relative_batched(vel, p, w)
+    gap = (p * p).sum(-1) - radius**2  # (B, m)
+    t = _contact_times(vv, pv, gap[:, None], np.reshape(horizon, (-1, 1, 1)))
+    return t.min(axis=2) if t.shape[2] else np.full(t.shape[:2], np.inf)
+
+
+def _contact_times(vv, pv, gap, horizon) -> np.ndarray:
+    """Per pair and velocity: the first contact [s] (inf: none within ``horizon``).
+
+    ``vv`` = ``||w - v||^2``, ``pv`` = ``<p, w - v>``, ``gap`` = ``||p||^2 - radius^2``, all
+    broadcast together (``horizon`` too).
+    """
     disc = pv * pv - vv * gap
     moving = vv > 1e-12
     closing = pv < 0.0
@@ -40,7 +62,7 @@ def first_contact_times(vel, p, w, radius, horizon: float) -> np.ndarray:
     t = np.where(approaching, (-pv - root) / np.where(moving, vv, 1.0), np.inf)
     t = np.where(gap <= 0.0, np.where(closing, 0.0, np.inf), t)
     t[~(t <= horizon)] = np.inf  # (NaN too)
-    return t.min(axis=1) if t.shape[1] else np.full(len(vel), np.inf)
+    return t
 
 
 def closest_clearances(vel, p, w, radius, horizon: float) -> np.ndarray:
@@ -54,10 +76,27 @@ def closest_clearances(vel, p, w, radius, horizon: float) -> np.ndarray:
     if not len(radius):
         return np.full(len(vel), np.inf)
     vx, vy, vv, pv = _relative(vel, p, w)
+    return _closest(p[:, 0], p[:, 1], vx, vy, vv, pv, radius, horizon).min(axis=1)
+
+
+def closest_clearances_batched(vel, p, w, radius, horizon) -> np.ndarray:
+    """:func:`closest_clearances` for ``B`` batches: ``(B, k)`` clearances [m].
+
+    Arguments as in :func:`contact_times_batched` (a negative horizon counts as 0).
+    """
+    if not len(radius):
+        return np.full(np.shape(vel)[:2], np.inf)
+    vx, vy, vv, pv = _relative_batched(vel, p, w)
+    end = np.maximum(np.reshape(horizon, (-1, 1, 1)), 0.0)
+    return _closest(p[:, None, :, 0], p[:, None, :, 1], vx, vy, vv, pv, radius, end).min(axis=2)
+
+
+def _closest(px, py, vx, vy, vv, pv, radius, horizon) -> np.ndarray:
+    """Per pair and velocity: the clearance [m] at closest approach within ``horizon``."""
     t = np.clip(-pv / np.where(vv > 1e-12, vv, 1.0), 0.0, horizon)  # time of closest approach
-    dx = p[:, 0] + vx * t
-    dy = p[:, 1] + vy * t
-    return (np.sqrt(dx * dx + dy * dy) - radius).min(axis=1)
+    dx = px + vx * t
+    dy = py + vy * t
+    return np.sqrt(dx * dx + dy * dy) - radius
 
 
 def _relative(vel, p, w) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -65,3 +104,10 @@ def _relative(vel, p, w) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray
     vx = w[:, 0] - vel[:, 0, None]
     vy = w[:, 1] - vel[:, 1, None]
     return vx, vy, vx * vx + vy * vy, p[:, 0] * vx + p[:, 1] * vy
+
+
+def _relative_batched(vel, p, w) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`_relative` with a leading batch axis: ``(B, k, m)`` each."""
+    vx = w[:, 0] - vel[:, :, 0, None]
+    vy = w[:, 1] - vel[:, :, 1, None]
+    return vx, vy, vx * vx + vy * vy, p[:, None, :, 0] * vx + p[:, None, :, 1] * vy
