@@ -116,6 +116,11 @@ class FilterParams(TypedParams):
         0.3, "m/s", "largest lead of the command over the measured velocity (rad/s for yaw) "
         "beyond which integration in the leading direction stops (anti-windup)", POSITIVE,
     )
+    windup_window: float = param(
+        0.0, "s", "the anti-windup compares the command with the measured velocity averaged "
+        "over this window (a walking gait's velocity swings within each step: one gait "
+        "cycle averages the sway out); 0: the latest measurement", NON_NEGATIVE,
+    )
     weights: tuple[float, float, float] = param(
         (1.0, 0.2, 0.5), "-", "unitless QP weights on (a, alpha, a_z) or (a_x, a_y, a_z): a "
         "small weight makes the filter prefer changing that input (e.g. steer or duck rather "

@@ -16,7 +16,7 @@ Per cycle (sim time ``t``):
    with vertical and horizontal obstacles together. Per-cycle input bounds add the velocity
    limits, a height-range barrier (never duck below ``min_height``: brake or steer instead)
    and anti-windup (no further integration in a direction where the command already leads
-   the measured velocity by more than ``windup_band``).
+   the measured velocity, averaged over ``windup_window``, by more than ``windup_band``).
 4. Integrate the safe acceleration into the published velocity command.
 
 Frames: odom for positions and obstacles; the command is in base_link (REP-103). In the
@@ -47,6 +47,7 @@ from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
 from safe_legged_c3bf.interfaces.rotations import yaw_from_quaternion
 from safe_legged_c3bf.safety.deadlock_side import deadlock_side
 from safe_legged_c3bf.safety.input_bounds import input_bounds, yaw_rate_only_decays
+from safe_legged_c3bf.safety.moving_mean import MovingMean
 from safe_legged_c3bf.safety.obstacle_input import (
     ObstacleInput,
     ObstacleSet,
@@ -133,6 +134,8 @@ class SafetyFilterCycle:
         self._v = np.zeros(4)
         self._initialised = False
         self._last_t: float | None = None
+        # The anti-windup's measured velocity (``windup_window``).
+        self._measured_mean = MovingMean(self.params.windup_window)
         # Deadlock resolution: turn side (+1 left, -1 right, 0 none), when last deadlocked,
         # and whether the last cycle's QP changed the command.
         self._detour_side = 0
@@ -170,6 +173,7 @@ class SafetyFilterCycle:
         """Replace the parameters (validated) and rebuild the QP."""
         self.params = params.validate()
         self._build()
+        self._measured_mean.window = self.params.windup_window
 
     def _inflation(self) -> tuple[float, float]:
         """Diameters [m] the obstacles grow by in x-y and x-z before the filter sees them.
@@ -270,6 +274,7 @@ class SafetyFilterCycle:
         if not self._initialised:
             self._v = self._clip_velocity(measured)
             self._initialised = True
+        windup_measured = self._measured_mean.add(t, measured)
         pos = base.position
         try:  # obstacles predicted to now from their stamp
             circles, ids, walled = to_c3bf_obstacles_walled(
@@ -292,7 +297,8 @@ class SafetyFilterCycle:
             if not self._v.any():  # stopped: the vanished obstacle has been answered
                 self._vanish_brake = None
             return out
-        return self._filtered(t, dt, ref, ref_stale, pos, yaw, measured, circles, ids, walled)
+        return self._filtered(t, dt, ref, ref_stale, pos, yaw, windup_measured, circles, ids,
+                              walled)
 
     def _advance(self, t: float) -> float:
         """The integration step of the cycle at ``t`` (s).
@@ -363,7 +369,8 @@ class SafetyFilterCycle:
         """The C3BF QP on the reference, integrated into the command (fresh inputs).
 
         The whole body's reference is shaped first (``reference_shaping``); ``walled``: mask
-        of the circles of bars handed over as walls (``bar_walls``).
+        of the circles of bars handed over as walls (``bar_walls``); ``measured``: the
+        velocity the anti-windup compares the command with (``windup_window``).
         """
         p, v = self.params, self._v
         ref_arr = ref.as_array()  # vx, vy, vz, wz
