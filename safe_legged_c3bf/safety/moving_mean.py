@@ -32,12 +32,17 @@ class MovingMean:
     def add(self, t: float, value: np.ndarray) -> np.ndarray:
         """Add the sample ``value`` taken at ``t`` [s]; the mean over the window (a new array).
 
-        A non-finite ``value`` is returned as it is, not added.
+        A non-finite ``value`` is returned as it is, not added; so is every ``value`` when
+        ``window`` is 0 (nothing kept: the filter's cycle pays nothing for it).
         """
+        if self.window <= 0.0:
+            self._samples.clear()
+            self._sum = None
+            return value
         value = np.array(value, dtype=float)
         if not np.isfinite(value).all():
             return value
-        if self.window <= 0.0 or self._sum is None or self._samples[-1][0] > t:
+        if self._sum is None or self._samples[-1][0] > t:
             self._samples.clear()
             self._sum = np.zeros_like(value)
         self._samples.append((t, value))
