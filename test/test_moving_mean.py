@@ -37,15 +37,19 @@ def test_window_zero_is_the_latest_sample():
         MovingMean(-0.1)
 
 
-def _side_step_with_sway(window: float, phase: float) -> list[float]:
+def _side_step_with_sway(window: float, phase: float, set_later: bool = False) -> list[float]:
     """Side-step commands while the measured vy follows the command plus a 1 Hz, 0.3 m/s sway.
 
     The biped's side-step limits, band and gait cycle (config/robots/biped.yaml); the sway
-    starts at ``phase`` [rad].
+    starts at ``phase`` [rad]. ``set_later``: the window is set by ``set_params`` after the
+    cycle was built with none (a parameter changed at run time).
     """
     params = FilterParams(model="unicycle_lateral", max_lateral_speed=0.08, windup_band=0.10,
                           windup_window=window)
-    cycle, ref, vy, out = SafetyFilterCycle(params), VelocityCommand(0.0, -0.08), 0.0, []
+    cycle = SafetyFilterCycle(params.updated(windup_window=0.0) if set_later else params)
+    if set_later:
+        cycle.set_params(params)
+    ref, vy, out = VelocityCommand(0.0, -0.08), 0.0, []
     for k in range(100):
         t = T0 + k * PERIOD
         sway = 0.3 * math.sin(2.0 * math.pi * (t - T0) + phase) if k else 0.0  # from rest
@@ -68,3 +72,8 @@ def test_averaged_over_the_gait_cycle_a_side_step_is_held_less_by_the_sway():
     raw = np.mean([reach(_side_step_with_sway(0.0, ph)) for ph in phases])
     averaged = np.mean([reach(_side_step_with_sway(1.0, ph)) for ph in phases])
     assert averaged < 0.85 * raw, (raw, averaged)
+
+
+def test_a_window_set_at_run_time_applies():
+    assert _side_step_with_sway(1.0, 2.0, set_later=True) == _side_step_with_sway(1.0, 2.0)
+    assert _side_step_with_sway(1.0, 2.0) != _side_step_with_sway(0.0, 2.0)
