@@ -123,8 +123,8 @@ class ReferenceShaping:
         if out is None:
             return ""
         ref_arr[0], ref_arr[1], ref_arr[3] = out.vx, out.vy, 0.0
-        ahead = "none" if math.isinf(out.contact_time) else f"{out.contact_time:.1f} s"
-        return f" (escaping a mover: {out.vx:+.2f}, {out.vy:+.2f} m/s; contact ahead {ahead})"
+        return (f" (escaping a mover: {out.vx:+.2f}, {out.vy:+.2f} m/s; contact ahead "
+                f"{_ahead(out.contact_time)})")
 
     def _turned_escape(self, ref_arr, circles, vertical, pos, yaw, vx_command) -> str:  # noqa: ANN001
         """The plain unicycle's escape: turn towards the new heading, then go."""
@@ -141,6 +141,10 @@ class ReferenceShaping:
         turn = min(max(HEADING_GAIN * out.heading, -p.max_yaw_rate), p.max_yaw_rate)
         ref_arr[0] = out.vx if abs(out.heading) <= ALIGNED else 0.0
         ref_arr[1], ref_arr[3] = 0.0, turn
-        ahead = "none" if math.isinf(out.contact_time) else f"{out.contact_time:.1f} s"
         return (f" (escaping a mover: turn {math.degrees(out.heading):+.0f} deg, then "
-                f"{out.vx:+.2f} m/s; contact ahead {ahead})")
+                f"{out.vx:+.2f} m/s; contact ahead {_ahead(out.contact_time)})")
+
+
+def _ahead(contact_time: float) -> str:
+    """An escape's first contact [s] for its message ("none": clear over the horizon)."""
+    return "none" if math.isinf(contact_time) else f"{contact_time:.1f} s"

@@ -107,7 +107,11 @@ def _relative(vel, p, w) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray
 
 
 def _relative_batched(vel, p, w) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`_relative` with a leading batch axis: ``(B, k, m)`` each."""
+    """:func:`_relative` with a leading batch axis: ``(B, k, m)`` each.
+
+    Kept apart from it: one function for both (``...`` indexing) cost the unbatched form,
+    called several times per filter cycle, 3-5 us more a call (measured on a busy machine).
+    """
     vx = w[:, 0] - vel[:, :, 0, None]
     vy = w[:, 1] - vel[:, :, 1, None]
     return vx, vy, vx * vx + vy * vy, p[:, None, :, 0] * vx + p[:, None, :, 1] * vy
