@@ -211,16 +211,3 @@ def test_a_standoff_between_pillars_and_stopped_walkers_is_left_sooner(monkeypat
     with_detour = _biped_standoff(stall_detour.STANDOFF_TIME, monkeypatch)
     without = _biped_standoff(math.inf, monkeypatch)
     assert with_detour < without - 5.0, (with_detour, without)
-
-
-@pytest.mark.parametrize(("pattern", "expected"), [
-    ("xxoxxxxxxx", 3), ("xxooxxxxxx", 3), ("xxoooxxxxx", 4), ("xxoooooxxx", 5),
-    ("xxoooooooo", 5), ("xxxxxxxxoo", 10), ("oxxxxxxxxx", 1), ("ooxxxxxxxx", 1),
-])
-def test_first_free_offset_stays_inside_a_narrow_free_run(pattern, expected):
-    """Two steps off the blocked edge, but never past the middle of a run a blocked heading
-    closes (a doorway one or two steps wide): beyond it lies the doorway's far side."""
-    free = np.array([c == "o" for c in pattern])
-    offset = stall_detour.first_free_offset(free, np.arange(1, 11) * 1.0, 2)
-    assert offset == expected
-    assert free[int(offset) - 1]

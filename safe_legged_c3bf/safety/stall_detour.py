@@ -61,16 +61,11 @@ SWITCH_MARGIN = math.radians(45.0)
 def first_free_offset(free: np.ndarray, offsets: np.ndarray, edge_steps: int) -> float | None:
     """The offset [rad] ``edge_steps`` beyond the first ``free`` one; None if none is free.
 
-    Off the blocked sector's edge, where every row's h is 0; capped at the last offset, and at
-    the middle of the first free run when a blocked heading ends it sooner (a doorway narrower
-    than the edge steps: beyond its middle the offset would point at its far side).
+    Off the blocked sector's edge, where every row's h is 0; capped at the last offset.
     """
     if not free.any():
         return None
-    first = int(np.argmax(free))
-    run = int(np.argmin(free[first:])) if not free[first:].all() else len(free) - first
-    last = len(offsets) - 1 if first + run == len(free) else first + (run - 1) // 2
-    return float(offsets[min(first + edge_steps, last)])
+    return float(offsets[min(int(np.argmax(free)) + edge_steps, len(offsets) - 1)])
 
 
 def chosen_side(best: dict[int, float], kept: int) -> int:
