@@ -43,7 +43,7 @@ import numpy as np
 
 from safe_legged_c3bf.safety.velocity_obstacles import closest_clearances, first_contact_times
 
-__all__ = ["MOVER_SPEED", "Escape", "EscapeShaping"]
+__all__ = ["MOVER_SPEED", "Escape", "EscapeShaping", "footprint_circles"]
 
 MOVER_SPEED = 0.05
 """Obstacle speed [m/s] from which an obstacle counts as a mover: a static obstacle's tracked
@@ -53,6 +53,13 @@ DIRECTIONS = 72
 """Candidate directions of travel (every 5 deg) in base_link."""
 FRACTIONS = (0.25, 0.5, 0.75, 1.0)
 """Candidate speeds, as fractions of the largest speed in each direction."""
+
+
+def footprint_circles(body) -> tuple[np.ndarray, np.ndarray]:  # noqa: ANN001
+    """A ``c3bf.body.RobotBody``'s x-y circles: offsets ``(c, 2)`` [m] in base_link, radii."""
+    offsets, radii, planes = body.arrays
+    vertical = planes == 0
+    return offsets[vertical, :2], radii[vertical]
 
 
 @dataclass(frozen=True)
@@ -87,9 +94,7 @@ class EscapeShaping:
         """
         if body is None or horizon <= 0.0:
             return None
-        offsets, radii, planes = body.arrays
-        vertical = planes == 0
-        return cls(horizon, offsets[vertical, :2], radii[vertical])
+        return cls(horizon, *footprint_circles(body))
 
     def shape(self, pos, yaw: float, ref, centers, velocities, radii,
               limits) -> Escape | None:

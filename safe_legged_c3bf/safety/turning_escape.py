@@ -39,7 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from safe_legged_c3bf.safety.escape import MOVER_SPEED
+from safe_legged_c3bf.safety.escape import MOVER_SPEED, footprint_circles
 from safe_legged_c3bf.safety.velocity_obstacles import (
     closest_clearances_batched,
     contact_times_batched,
@@ -82,15 +82,14 @@ class TurningEscapeShaping:
         steps = np.arange(-half + 1, half + 1)  # (-180, 180]
         self._headings = steps * HEADING_STEP  # (H,)
         self._steps = steps
+        self._zero = half - 1  # the index of no turn
 
     @classmethod
     def for_body(cls, body, horizon: float) -> TurningEscapeShaping | None:  # noqa: ANN001
         """The stage over a ``c3bf.body.RobotBody``'s x-y circles (None: no body or off)."""
         if body is None or horizon <= 0.0:
             return None
-        offsets, radii, planes = body.arrays
-        vertical = planes == 0
-        return cls(horizon, offsets[vertical, :2], radii[vertical])
+        return cls(horizon, *footprint_circles(body))
 
     def shape(self, pos, yaw: float, ref_vx: float, vx: float, centers, velocities, radii,
               limits) -> TurningEscape | None:
@@ -165,7 +164,7 @@ class TurningEscapeShaping:
         """
         step = HEADING_STEP / yaw_rate
         gap = np.sqrt((rel * rel).sum(-1)) - pair_r  # (H, m)
-        zero = int(np.nonzero(self._steps == 0)[0][0])
+        zero = self._zero
         deeper = (gap < np.minimum(gap[zero], 0.0) - 1e-9).any(axis=1)  # (H,)
         hit = np.where(stand <= turn + step, stand, np.inf)  # touched while (or before) there
         hit = np.minimum(hit, np.where(deeper, np.maximum(turn - step, 0.0), np.inf))
