@@ -42,18 +42,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from safe_legged_c3bf.safety import stall_detour
-from safe_legged_c3bf.safety.free_headings import (
-    MIN_ROOM,
-    aim_in_run,
-    first_free_run,
-    free_runs,
-    tangent_offsets,
-    with_tangents,
-)
 from safe_legged_c3bf.safety.stall_detour import (
     SWITCH_MARGIN,
     StallDetour,
     chosen_side,
+    first_free_offset,
 )
 from safe_legged_c3bf.safety.velocity_obstacles import first_contact_times
 
@@ -162,7 +155,6 @@ class ConeSteering:
         n = int(math.ceil(MAX_TURN / heading_step))
         offsets = heading_step * np.arange(1, n + 1)
         self._left, self._right = offsets, -offsets
-        self._step = heading_step
         self._both, self._n = np.concatenate([offsets, -offsets]), n  # one scan, both sides
         self._side, self._side_time = 0, -math.inf
         self.detour = StallDetour(heading_step, heading_gain, START_SPEED, EDGE_STEPS)
@@ -205,7 +197,7 @@ class ConeSteering:
         if not yaw_blocked:
             self.detour.reset_stall()
             out = self._within_free_interval(yaw, psi_ref, vx_ref, wz_ref, max_yaw_rate,
-                                             scan[2:], (p, w, r))
+                                             scan[2:])
             if out.side == 0:
                 return out
             return Steer(max(vx_ref, cruise), out.yaw_rate, out.side, True)
@@ -310,28 +302,23 @@ class ConeSteering:
             asked.popleft()
         return asked[0][1]
 
-    def _within_free_interval(self, yaw, psi_ref, vx_ref, wz_ref, max_yaw_rate, both, vo):
+    def _within_free_interval(self, yaw, psi_ref, vx_ref, wz_ref, max_yaw_rate, both):
         """From a free heading: the reference turn, kept inside the free headings around it.
 
         The free interval is scanned from the yaw to each side up to the first blocked
         heading; a reference heading beyond it (or on its far side) is clamped one
         ``heading_step`` inside its edge, so the robot follows the cone's edge instead of
         turning into the cone and being braked there. ``both``: whether the headings
-        ``yaw + self._both`` are blocked at ``vx_ref``. A window narrower than that on both
-        sides (a doorway) is measured between the grid's steps and the reference is turned
-        to its middle (``free_headings``). ``vo``: ``(p, w, r)`` of ``blocked_headings``.
+        ``yaw + self._both`` are blocked at ``vx_ref``.
         """
-        edges, firsts = [], []
+        edges = []
         for offsets, blocked in ((self._left, both[:self._n]), (self._right, both[self._n:])):
             k = int(np.argmax(blocked)) if blocked.any() else len(offsets)
-            firsts.append(k)
             k -= EDGE_STEPS  # keep off the cone's edge, where every row's h is 0
             edges.append(float(offsets[k - 1]) if k > 0 else 0.0)
         hi, lo = edges[0], edges[1]  # free offsets from the yaw: [lo, hi], lo <= 0 <= hi
         if hi >= self._left[-1] - 1e-9 and lo <= self._right[-1] + 1e-9:
             return Steer(vx_ref, wz_ref, 0, True)  # nothing blocked anywhere
-        if max(firsts) <= EDGE_STEPS:
-            hi = lo = self._window_middle(yaw, vx_ref, firsts, *vo)
         error = math.remainder(psi_ref - yaw, math.tau)
         clamped = min(max(error, lo), hi)
         if clamped == error:
@@ -339,64 +326,15 @@ class ConeSteering:
         wz = max(-max_yaw_rate, min(max_yaw_rate, self.heading_gain * clamped))
         return Steer(vx_ref, wz, 1 if clamped > error else -1, True)
 
-    def _window_middle(self, yaw, speed, firsts, p, w, r) -> float:
-        """Offset [rad] from a free ``yaw`` of the middle of the free window round it.
-
-        ``firsts``: the index of the first blocked grid heading to the left and to the right;
-        the window's edges are found among the grid's and the tangents' headings below them
-        (``free_headings``).
-        """
-        still = np.hypot(w[:, 0], w[:, 1]) < STATIC_SPEED
-        bound = self._left[min(max(firsts), self._n - 1)]
-        tangents = tangent_offsets(yaw, p[still], r[still], bound, speed * self.horizon)
-        sides = [with_tangents(self._left[:k + 1], tan)
-                 for k, tan in zip(firsts, tangents, strict=True)]
-        psi = np.concatenate([yaw + sides[0], yaw - sides[1]])
-        free = ~blocked_headings(psi, max(speed, 1e-3), p, w, r, self.horizon)
-        edges = []
-        for offsets, ok in ((sides[0], free[:len(sides[0])]), (sides[1], free[len(sides[0]):])):
-            run = first_free_run(ok, offsets) if ok.size and ok[0] else None
-            edges.append(run[1] if run else 0.0)
-        return 0.5 * (edges[0] - edges[1])
-
-    def _side_offset(self, offsets, free, roomy) -> float | None:
-        """Offset [rad] aimed at on one side, off the nearest usable free run; None: none.
-
-        ``offsets``: the grid's and the tangents' (ascending), ``free`` their test. A run
-        holding more than ``EDGE_STEPS`` grid headings is aimed ``EDGE_STEPS`` grid headings
-        past its first one; a narrower one at its middle (``free_headings.aim_in_run``) when
-        ``roomy(offset)`` says it leaves ``MIN_ROOM`` across, else the next run is tried.
-        """
-        for first, last in free_runs(free, offsets):
-            grid = self._left[(self._left >= first - 1e-12) & (self._left <= last + 1e-12)]
-            if grid.size > EDGE_STEPS:
-                return float(grid[EDGE_STEPS])
-            aim = aim_in_run(first, last, EDGE_STEPS * self._step)
-            if roomy(aim):
-                return aim
-        return None
-
     def _pick_side(self, t, psi_ref, speed, p, w, r) -> tuple[int, float] | None:
-        """(side, heading offset [rad]) of the nearest free heading; the kept side first.
-
-        The grid's headings and, between them, those just outside the static obstacles'
-        tangents (``free_headings``): a doorway narrower than a grid step is found.
-        """
+        """(side, heading offset [rad]) of the nearest free heading; the kept side first."""
         best = {}
-        still = np.hypot(w[:, 0], w[:, 1]) < STATIC_SPEED
-        tangents = tangent_offsets(psi_ref, p[still], r[still], MAX_TURN, speed * self.horizon)
-        left, right = (with_tangents(self._left, tan) for tan in tangents)
-        both = ~blocked_headings(np.concatenate([psi_ref + left, psi_ref - right]), speed,
-                                 p, w, r, self.horizon)
-        grown = r + 0.5 * MIN_ROOM
-        for side, offsets, free in ((1, left, both[:len(left)]), (-1, right, both[len(left):])):
-            def roomy(offset: float, side: int = side) -> bool:
-                psi = np.array([psi_ref + side * offset])
-                return not blocked_headings(psi, speed, p, w, grown, self.horizon)[0]
-
-            offset = self._side_offset(offsets, free, roomy)  # off the cone's edge
+        both = ~blocked_headings(psi_ref + self._both, speed, p, w, r, self.horizon)
+        for side, offsets, free in ((1, self._left, both[:self._n]),
+                                    (-1, self._right, both[self._n:])):
+            offset = first_free_offset(free, offsets, EDGE_STEPS)  # off the cone's edge
             if offset is not None:
-                best[side] = side * offset
+                best[side] = offset
         if not best:
             return None
         kept = self._side if t - self._side_time <= self.side_memory else 0
