@@ -92,3 +92,92 @@ def test_turning_towards_a_free_heading_scales_the_cruise_speed_by_the_error():
     assert out.side != 0
     error = abs(out.yaw_rate) / 1.5  # heading_gain * error, below the yaw-rate limit
     assert out.vx == pytest.approx(0.4 * math.cos(error), rel=1e-6)
+
+
+def test_first_free_offset_passes_over_a_run_too_narrow_to_aim_into():
+    """Two steps off the blocked sector's edge, only where that heading is itself free."""
+    from safe_legged_c3bf.safety.stall_detour import first_free_offset
+
+    offsets = np.radians(np.arange(5.0, 101.0, 5.0))
+    free = np.zeros(offsets.size, dtype=bool)
+    free[1] = True  # one free heading (10 deg) between two cones
+    free[6:] = True  # free from 35 deg on
+    assert math.degrees(first_free_offset(free, offsets, 2)) == pytest.approx(45.0)
+    free[1:4] = True  # three free headings: the first run qualifies
+    assert math.degrees(first_free_offset(free, offsets, 2)) == pytest.approx(20.0)
+    end = np.zeros(offsets.size, dtype=bool)
+    end[-2:] = True  # a run that reaches the scan's end is aimed within it
+    assert math.degrees(first_free_offset(end, offsets, 2)) == pytest.approx(100.0)
+    narrow = np.zeros(offsets.size, dtype=bool)
+    narrow[3] = True
+    assert first_free_offset(narrow, offsets, 2) is None
+
+
+def test_a_turn_in_place_is_always_aimed_at_a_free_heading():
+    """From rest with the heading blocked, the steering turns towards a heading it found free.
+
+    Before, a free run narrower than ``EDGE_STEPS + 1`` steps was aimed ``EDGE_STEPS`` past its
+    start, into the next cone: in random A1 seed 22 (oracle) that aim was the robot's own yaw,
+    so the turn asked was 0 and the A1 stood 15 s before a bar (the closed loop below).
+    """
+    rng = np.random.default_rng(3)
+    checked = 0
+    for k in range(300):
+        n = int(rng.integers(3, 9))
+        ang = rng.uniform(-1.8, 1.8, n)
+        dist = rng.uniform(0.8, 4.0, n)
+        centres = np.column_stack([dist * np.cos(ang), dist * np.sin(ang)])
+        radii = rng.uniform(0.1, 0.5, n)
+        s = ConeSteering(20.0, 0.2, 0.5, 1.5)
+        out = s.steer(10.0 * k, (0, 0), 0.0, 0.4, 0.0, centres, np.zeros((n, 2)), radii, 10.0,
+                      speed=0.0)
+        if out.side == 0 or out.detour:
+            continue
+        checked += 1
+        target = out.yaw_rate / 1.5  # the heading turned to (yaw 0, no yaw-rate clipping)
+        assert not blocked_headings(np.array([target]), 0.4, centres, np.zeros((n, 2)),
+                                    radii + 0.2, 20.0)[0], k
+    assert checked > 100
+
+
+def test_the_a1_of_random_seed_22_turns_out_of_its_standstill():
+    """Random A1 seed 22 (oracle) at 11 s, in the unit harness (A1 profile, first-order robot):
+    at rest, its yaw blocked, the planner's heading blocked, one free heading 10 deg right of
+    the planner's between two cones. The steering aimed two steps past it, at the robot's own
+    yaw: it stood (6 mm in 5 s; in the run, 15 s). Now it turns to a free heading and walks."""
+    from filter_harness import SimpleRobot
+
+    from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
+    from safe_legged_c3bf.planning.reference_planner import (
+        PlannerConfig,
+        ReferencePlanner,
+        RobotPose,
+    )
+    from safe_legged_c3bf.run.parameters import robot_profile
+    from safe_legged_c3bf.safety.obstacle_input import ObstacleInput
+    from safe_legged_c3bf.safety.params import FilterParams
+    from safe_legged_c3bf.safety.safety_cycle import SafetyFilterCycle
+
+    cycle = SafetyFilterCycle(FilterParams(**robot_profile("quadruped")["safety_filter"]))
+    planner = ReferencePlanner(PlannerConfig(mode="goal", max_vx=0.4, z_nominal=0.28))
+    planner.set_goal(6.05, 0.0)
+    robot = SimpleRobot(x=-0.72, y=0.27, yaw=math.radians(-32.4), z=0.28, tau=0.1,
+                        holonomic=True)
+    obstacles = [  # the run's, the two walkers where they had stopped
+        ObstacleInput(name, plane, np.array(c), np.zeros(3), np.array(ab), extent, th)
+        for name, plane, c, ab, extent, th in [
+            ("bar_0", 1, (2.39, 0.0, 0.375), (0.057, 0.057), 4.0, 0.0),
+            ("head_on_1", 0, (3.3, 0.08, 0.58), (0.222, 0.185), 1.17, 3.007),
+            ("pillar_2", 0, (4.839, 0.003, 0.6), (0.212, 0.133), 1.21, 2.097),
+            ("side_bench_3", 0, (4.784, 1.146, 0.83), (0.626, 0.209), 1.66, -0.053),
+            ("crossing_4", 0, (4.04, -1.51, 0.65), (0.157, 0.155), 1.29, -1.65),
+            ("side_bench_5", 0, (1.633, -1.405, 0.6), (0.781, 0.243), 1.22, -0.005)]]
+    start = np.array([robot.x, robot.y])
+    for k in range(250):  # 5 s at 50 Hz
+        t = 0.02 * k
+        ref = planner.compute(RobotPose(robot.x, robot.y, robot.yaw, robot.z), t)
+        out = cycle.step(t, VelocityCommand(ref.vx, ref.vy, ref.vz, ref.yaw_rate), t,
+                         robot.base_state(t), obstacles, t)
+        for _ in range(5):
+            robot.step(out.command, 0.004)
+    assert np.hypot(robot.x - start[0], robot.y - start[1]) > 0.3
