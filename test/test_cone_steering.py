@@ -94,23 +94,23 @@ def test_turning_towards_a_free_heading_scales_the_cruise_speed_by_the_error():
     assert out.vx == pytest.approx(0.4 * math.cos(error), rel=1e-6)
 
 
-def test_first_free_offset_passes_over_a_run_too_narrow_to_aim_into():
-    """Two steps off the blocked sector's edge, only where that heading is itself free."""
+def test_first_free_offset_aims_a_narrow_run_at_its_middle():
+    """Two steps off the blocked sector's edge where that heading is free; else the middle."""
     from safe_legged_c3bf.safety.stall_detour import first_free_offset
 
     offsets = np.radians(np.arange(5.0, 101.0, 5.0))
     free = np.zeros(offsets.size, dtype=bool)
     free[1] = True  # one free heading (10 deg) between two cones
-    free[6:] = True  # free from 35 deg on
-    assert math.degrees(first_free_offset(free, offsets, 2)) == pytest.approx(45.0)
-    free[1:4] = True  # three free headings: the first run qualifies
+    free[6:] = True
+    assert math.degrees(first_free_offset(free, offsets, 2)) == pytest.approx(10.0)
+    free[2] = True  # two: the first of them
+    assert math.degrees(first_free_offset(free, offsets, 2)) == pytest.approx(10.0)
+    free[3] = True  # three: two steps in, as before
     assert math.degrees(first_free_offset(free, offsets, 2)) == pytest.approx(20.0)
     end = np.zeros(offsets.size, dtype=bool)
-    end[-2:] = True  # a run that reaches the scan's end is aimed within it
+    end[-1] = True  # a run at the scan's end
     assert math.degrees(first_free_offset(end, offsets, 2)) == pytest.approx(100.0)
-    narrow = np.zeros(offsets.size, dtype=bool)
-    narrow[3] = True
-    assert first_free_offset(narrow, offsets, 2) is None
+    assert first_free_offset(np.zeros(offsets.size, dtype=bool), offsets, 2) is None
 
 
 def test_a_turn_in_place_is_always_aimed_at_a_free_heading():

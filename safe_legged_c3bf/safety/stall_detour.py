@@ -59,21 +59,20 @@ SWITCH_MARGIN = math.radians(45.0)
 """The kept side is left only for a side whose free heading is this much nearer [rad]."""
 
 def first_free_offset(free: np.ndarray, offsets: np.ndarray, edge_steps: int) -> float | None:
-    """The offset [rad] ``edge_steps`` into the first run of free headings that holds it.
+    """The offset [rad] ``edge_steps`` into the first run of free headings; None if none.
 
-    Off the blocked sector's edge, where every row's h is 0. A run of fewer than
-    ``edge_steps + 1`` free headings that ends before the last offset is passed over: the
-    offset ``edge_steps`` past its start would be blocked again (a narrow window between two
-    cones; aiming there held the A1 still, its yaw on that blocked offset: random A1 seed 22,
-    ``test/test_cone_steering.py``). A run that reaches the last offset is aimed within it.
-    None if no run qualifies.
+    Off the blocked sector's edge, where every row's h is 0. A run too short to hold that
+    offset (a narrow window between two cones, one or two grid headings) is aimed at its
+    middle heading instead: the offset ``edge_steps`` past its start would be blocked again
+    (in random A1 seed 22 it was the robot's own yaw, so the turn in place asked for nothing
+    and the A1 stood still before a bar; ``test/test_cone_steering.py``).
     """
-    n = len(offsets)
-    edges = np.diff(np.concatenate([[0], free.astype(np.int8), [0]]))
-    for start, stop in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True):
-        if stop - start > edge_steps or stop == n:
-            return float(offsets[min(start + edge_steps, stop - 1)])
-    return None
+    if not free.any():
+        return None
+    start = int(np.argmax(free))
+    blocked_after = np.flatnonzero(~free[start:])
+    length = int(blocked_after[0]) if blocked_after.size else len(free) - start
+    return float(offsets[start + (edge_steps if length > edge_steps else (length - 1) // 2)])
 
 
 def chosen_side(best: dict[int, float], kept: int) -> int:
