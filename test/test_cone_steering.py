@@ -111,6 +111,15 @@ def test_first_free_offset_aims_a_narrow_run_at_its_middle():
     end[-1] = True  # a run at the scan's end
     assert math.degrees(first_free_offset(end, offsets, 2)) == pytest.approx(100.0)
     assert first_free_offset(np.zeros(offsets.size, dtype=bool), offsets, 2) is None
+    # min_run 3 (the biped's): runs of one or two headings are passed over for the next,
+    # except at the scan's end, where a run's true width is unknown.
+    free = np.zeros(offsets.size, dtype=bool)
+    free[1:3] = True
+    free[6:] = True
+    assert math.degrees(first_free_offset(free, offsets, 2, min_run=3)) == pytest.approx(45.0)
+    assert math.degrees(first_free_offset(end, offsets, 2, min_run=3)) == pytest.approx(100.0)
+    free[6:] = False
+    assert first_free_offset(free, offsets, 2, min_run=3) is None
 
 
 def test_a_turn_in_place_is_always_aimed_at_a_free_heading():

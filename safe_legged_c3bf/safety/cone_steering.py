@@ -140,13 +140,16 @@ class ConeSteering:
 
     def __init__(self, horizon: float, robot_radius: float, lookahead: float,
                  heading_gain: float, heading_step: float = math.radians(5.0),
-                 side_memory: float = 3.0, cruise_memory: float = 0.0) -> None:
+                 side_memory: float = 3.0, cruise_memory: float = 0.0,
+                 min_run: int = 1) -> None:
         """Configure the steering (units in the arguments' descriptions).
 
         ``horizon`` [s], ``robot_radius`` [m], ``lookahead`` [s] (reference heading = yaw +
         wz_ref * lookahead), ``heading_gain`` [1/s] (yaw rate per rad of heading error),
         ``heading_step`` [rad], ``side_memory`` [s], ``cruise_memory`` [s] (0: a steered
-        reference keeps its own forward speed; see the module docstring).
+        reference keeps its own forward speed; see the module docstring), ``min_run``: the
+        fewest free grid headings a run must hold to be turned to
+        (``stall_detour.first_free_offset``).
         """
         self.horizon, self.robot_radius = horizon, robot_radius
         self.lookahead, self.heading_gain = lookahead, heading_gain
@@ -157,7 +160,8 @@ class ConeSteering:
         self._left, self._right = offsets, -offsets
         self._both, self._n = np.concatenate([offsets, -offsets]), n  # one scan, both sides
         self._side, self._side_time = 0, -math.inf
-        self.detour = StallDetour(heading_step, heading_gain, START_SPEED, EDGE_STEPS)
+        self.min_run = min_run
+        self.detour = StallDetour(heading_step, heading_gain, START_SPEED, EDGE_STEPS, min_run)
         self._standoff_since: float | None = None  # s: stood while the planner asks to move
         self._swing = _Swing()  # the yaw's turns to and fro during that standstill
 
@@ -332,7 +336,7 @@ class ConeSteering:
         both = ~blocked_headings(psi_ref + self._both, speed, p, w, r, self.horizon)
         for side, offsets, free in ((1, self._left, both[:self._n]),
                                     (-1, self._right, both[self._n:])):
-            offset = first_free_offset(free, offsets, EDGE_STEPS)  # off the cone's edge
+            offset = first_free_offset(free, offsets, EDGE_STEPS, self.min_run)  # off the edge
             if offset is not None:
                 best[side] = offset
         if not best:

@@ -191,6 +191,14 @@ class FilterParams(TypedParams):
         "cruise speed; a goal-seeking planner slows with the heading error the steering "
         "holds); 0: the reference's own speed", NON_NEGATIVE,
     )
+    steer_min_free_run: int = param(
+        1, "-", "cone steering and stall detour: the fewest free 5 deg grid headings a run "
+        "must hold to be turned to; a shorter one (a narrow window between two cones) is "
+        "passed over for the next. 1: every run, a short one aimed at its middle (the A1 "
+        "threads quadruped_gap's doorway that way); the biped, whose heading drifts 6 times "
+        "as far (doc/evaluation.md, velocity tracking), stood in such windows",
+        at_least(1),
+    )
     deadlock_speed: float = param(
         0.05, "m/s", "the robot is deadlocked when the filter holds its commanded forward "
         "speed below this while the reference asks for more (unicycle model)", NON_NEGATIVE,

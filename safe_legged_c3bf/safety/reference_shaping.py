@@ -44,6 +44,7 @@ class ReferenceShaping:
         self.steering = ConeSteering(
             params.steer_horizon, cover_half_width(body), params.steer_lookahead,
             params.steer_gain, cruise_memory=params.steer_cruise_memory,
+            min_run=params.steer_min_free_run,
         )
         self.escape = EscapeShaping.for_body(body, params.escape_horizon)
         self.turning_escape = TurningEscapeShaping.for_body(body, params.escape_horizon)

@@ -58,21 +58,25 @@ TURN_FIRST = math.radians(10.0)
 SWITCH_MARGIN = math.radians(45.0)
 """The kept side is left only for a side whose free heading is this much nearer [rad]."""
 
-def first_free_offset(free: np.ndarray, offsets: np.ndarray, edge_steps: int) -> float | None:
+def first_free_offset(free: np.ndarray, offsets: np.ndarray, edge_steps: int,
+                      min_run: int = 1) -> float | None:
     """The offset [rad] ``edge_steps`` into the first run of free headings; None if none.
 
     Off the blocked sector's edge, where every row's h is 0. A run too short to hold that
-    offset (a narrow window between two cones, one or two grid headings) is aimed at its
-    middle heading instead: the offset ``edge_steps`` past its start would be blocked again
-    (in random A1 seed 22 it was the robot's own yaw, so the turn in place asked for nothing
-    and the A1 stood still before a bar; ``test/test_cone_steering.py``).
+    offset (a narrow window between two cones) is aimed at its middle heading instead: the
+    offset ``edge_steps`` past its start would be blocked again (in random A1 seed 22 it was
+    the robot's own yaw, so the turn in place asked for nothing and the A1 stood still before
+    a bar; ``test/test_cone_steering.py``). A run of fewer than ``min_run`` headings is passed
+    over, unless it reaches the last offset (then its true width is unknown).
     """
-    if not free.any():
-        return None
-    start = int(np.argmax(free))
-    blocked_after = np.flatnonzero(~free[start:])
-    length = int(blocked_after[0]) if blocked_after.size else len(free) - start
-    return float(offsets[start + (edge_steps if length > edge_steps else (length - 1) // 2)])
+    n = len(offsets)
+    edges = np.diff(np.concatenate([[0], free.astype(np.int8), [0]]))
+    for start, stop in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True):
+        length = int(stop - start)
+        if length < min_run and stop < n:
+            continue
+        return float(offsets[start + (edge_steps if length > edge_steps else (length - 1) // 2)])
+    return None
 
 
 def chosen_side(best: dict[int, float], kept: int) -> int:
@@ -101,17 +105,18 @@ class StallDetour:
     """The detour stage of the cone steering (see the module docstring)."""
 
     def __init__(self, heading_step: float, heading_gain: float, start_speed: float,
-                 edge_steps: int) -> None:
+                 edge_steps: int, min_run: int = 1) -> None:
         """Configure the stage (units in the arguments' descriptions).
 
         ``heading_step`` [rad] of the search, ``heading_gain`` [1/s] (yaw rate per rad),
         ``start_speed`` [m/s] below which the robot counts as standing, ``edge_steps``
-        (heading steps kept off a blocked sector's edge).
+        (heading steps kept off a blocked sector's edge), ``min_run`` (fewest free headings
+        of a run turned to: ``first_free_offset``).
         """
         n = int(math.ceil(math.pi / heading_step))
         self._offsets = heading_step * np.arange(1, n + 1)  # up to half a turn
         self.heading_gain, self.start_speed = heading_gain, start_speed
-        self.edge_steps = edge_steps
+        self.edge_steps, self.min_run = edge_steps, min_run
         self._stood_since: float | None = None
         self._detour: _Detour | None = None
 
@@ -184,4 +189,4 @@ class StallDetour:
     def _free_offset(self, goal_heading: float, side: int, blocked: Blocked) -> float | None:
         """Offset [rad, >= 0] of the first free heading on ``side``, off the edge; None."""
         free = ~blocked(goal_heading + side * self._offsets)
-        return first_free_offset(free, self._offsets, self.edge_steps)
+        return first_free_offset(free, self._offsets, self.edge_steps, self.min_run)
