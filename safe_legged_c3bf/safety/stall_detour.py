@@ -69,13 +69,17 @@ def first_free_offset(free: np.ndarray, offsets: np.ndarray, edge_steps: int,
     a bar; ``test/test_cone_steering.py``). A run of fewer than ``min_run`` headings is passed
     over, unless it reaches the last offset (then its true width is unknown).
     """
-    n = len(offsets)
-    edges = np.diff(np.concatenate([[0], free.astype(np.int8), [0]]))
-    for start, stop in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1), strict=True):
-        length = int(stop - start)
-        if length < min_run and stop < n:
-            continue
-        return float(offsets[start + (edge_steps if length > edge_steps else (length - 1) // 2)])
+    n = len(free)
+    start = int(np.argmax(free)) if n else 0
+    while start < n and free[start]:  # argmax / argmin: this runs twice per filter cycle
+        rest = free[start:]
+        k = int(np.argmin(rest))
+        length = len(rest) if rest[k] else k
+        if length >= min_run or start + length == n:
+            return float(offsets[start + (edge_steps if length > edge_steps
+                                          else (length - 1) // 2)])
+        after = free[start + length:]
+        start += length + int(np.argmax(after))
     return None
 
 
