@@ -160,7 +160,6 @@ class ConeSteering:
         self._left, self._right = offsets, -offsets
         self._both, self._n = np.concatenate([offsets, -offsets]), n  # one scan, both sides
         self._side, self._side_time = 0, -math.inf
-        self.min_run = min_run
         self.detour = StallDetour(heading_step, heading_gain, START_SPEED, EDGE_STEPS, min_run)
         self._standoff_since: float | None = None  # s: stood while the planner asks to move
         self._swing = _Swing()  # the yaw's turns to and fro during that standstill
@@ -336,7 +335,7 @@ class ConeSteering:
         both = ~blocked_headings(psi_ref + self._both, speed, p, w, r, self.horizon)
         for side, offsets, free in ((1, self._left, both[:self._n]),
                                     (-1, self._right, both[self._n:])):
-            offset = first_free_offset(free, offsets, EDGE_STEPS, self.min_run)  # off the edge
+            offset = first_free_offset(free, offsets, EDGE_STEPS, self.detour.min_run)  # off edge
             if offset is not None:
                 best[side] = offset
         if not best:
