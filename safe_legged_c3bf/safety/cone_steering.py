@@ -42,6 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from safe_legged_c3bf.safety import stall_detour
+from safe_legged_c3bf.safety.escape import footprint_circles
 from safe_legged_c3bf.safety.stall_detour import (
     SWITCH_MARGIN,
     StallDetour,
@@ -87,9 +88,8 @@ def cover_half_width(body) -> float:  # noqa: ANN001 - a c3bf RobotBody or None
     """
     if body is None:
         return 0.0
-    off, rad, pl = body.arrays
-    vertical = pl == 0
-    return float((np.abs(off[vertical, 1]) + rad[vertical]).max())
+    offsets, radii = footprint_circles(body)
+    return float((np.abs(offsets[:, 1]) + radii).max())
 
 
 def blocked_headings(psi, speed, p, w, radius, horizon) -> np.ndarray:
