@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -44,8 +45,14 @@ def _gap(truth: list, center: np.ndarray) -> float:
     return min(gaps, default=math.inf)
 
 
-def replay(path: Path, robot: str, clearing: bool) -> dict[str, int]:
-    """Counts of one recording through a tracker node (scan clearing on or off)."""
+def replay(
+    path: Path, robot: str, overrides: dict, sample: Callable | None = None,
+) -> dict[str, int]:
+    """Counts of one recording through a tracker node with these parameter ``overrides``.
+
+    ``sample(tracks, truth, robot_xy, out)`` counts into ``out`` every ``SAMPLE`` s (default:
+    the ghost counts below); the scan's clearings are counted here.
+    """
     from mcap.reader import make_reader
     from rclpy.parameter import Parameter
     from rclpy.serialization import deserialize_message
@@ -55,7 +62,8 @@ def replay(path: Path, robot: str, clearing: bool) -> dict[str, int]:
     from safe_legged_c3bf.replay.run import pipeline_parameters
 
     _, merged = pipeline_parameters(robot)
-    settings = {**merged["obstacle_tracker"], "scan_clearing": clearing}
+    settings = {**merged["obstacle_tracker"], **overrides}
+    sample = sample or _sample
     settings = {k: v for k, v in settings.items() if k != "use_sim_time"}
     node = ObstacleTrackerNode(parameter_overrides=[
         Parameter(k, value=list(v) if isinstance(v, tuple) else v) for k, v in settings.items()
@@ -66,7 +74,7 @@ def replay(path: Path, robot: str, clearing: bool) -> dict[str, int]:
     odom_topic, truth_topic = topics.ODOM.name, topics.GROUND_TRUTH_OBSTACLES.name
     wanted = [odom_topic, topics.SCAN.name, topics.OBSTACLE_DETECTIONS.name, truth_topic]
     classes = {n: topics.by_name(n).msg_class() for n in (odom_topic, truth_topic)}
-    out = {"frames": 0, "ghosts": 0, "near_ghosts": 0, "cleared": 0, "wrong": 0}
+    out = {"cleared": 0, "wrong": 0}
     truth: list = []
     robot_xy = np.zeros(2)
     next_sample = 0.0
@@ -95,7 +103,7 @@ def replay(path: Path, robot: str, clearing: bool) -> dict[str, int]:
                     node._on_detections(message.data)
                     if clock[0] >= next_sample and truth:
                         next_sample = clock[0] + SAMPLE
-                        _sample(node.tracker.tracks_at(clock[0]), truth, robot_xy, out)
+                        sample(node.tracker.tracks_at(clock[0]), truth, robot_xy, out)
     finally:
         node.destroy_node()
     return out
@@ -106,11 +114,11 @@ def _sample(tracks: list, truth: list, robot_xy: np.ndarray, out: dict[str, int]
         if o.plane != 0:
             continue
         center = np.asarray(o.center, dtype=float)[:2]
-        out["frames"] += 1
+        out["frames"] = out.get("frames", 0) + 1
         if _gap(truth, center) > GHOST_GAP:
-            out["ghosts"] += 1
+            out["ghosts"] = out.get("ghosts", 0) + 1
             near = float(np.linalg.norm(center - robot_xy)) - max(o.semi_axes) < NEAR
-            out["near_ghosts"] += int(near)
+            out["near_ghosts"] = out.get("near_ghosts", 0) + int(near)
 
 
 def main() -> int:
@@ -129,7 +137,7 @@ def main() -> int:
         for path in args.recordings:
             robot = args.robot or ("biped" if "biped" in path.name else "quadruped")
             for clearing in (False, True):
-                c = replay(path, robot, clearing)
+                c = replay(path, robot, {"scan_clearing": clearing})
                 for key, value in c.items():
                     totals[clearing][key] = totals[clearing].get(key, 0) + value
                 _line(path.stem, clearing, c)

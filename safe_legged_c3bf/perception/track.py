@@ -344,6 +344,7 @@ class Track:
         )
         self.created_at = float(t)
         self.last_update_time = float(t)
+        self.growth_from = float(t)  # s: a coasting track's growth counts from here
         self.hits = 1
         self.consecutive_misses = 0
         self._history: deque[bool] = deque([True], maxlen=config.confirm_window)
@@ -416,6 +417,7 @@ class Track:
             source_id=source_id,
         )
         self.last_update_time = max(self.last_update_time, float(t))
+        self.growth_from = max(self.growth_from, self.last_update_time)
         self.hits += 1
         self.consecutive_misses = 0
         self._history.append(True)
@@ -426,6 +428,10 @@ class Track:
         """Record a tracker cycle without an associated detection (coasting)."""
         self.consecutive_misses += 1
         self._history.append(False)
+
+    def hold_growth(self, t: float) -> None:
+        """Restart the coasting growth's clock at ``t`` (s): its place is seen occupied."""
+        self.growth_from = max(self.growth_from, float(t))
 
     def is_stale(self, t: float) -> bool:
         """True if the track has not been updated for too long at time ``t``."""

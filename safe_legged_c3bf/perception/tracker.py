@@ -39,6 +39,7 @@ from safe_legged_c3bf.perception.association import (
     gate_threshold,
     mahalanobis_cost_matrix,
 )
+from safe_legged_c3bf.perception.hidden_tracks import inside_vertical_detections
 from safe_legged_c3bf.perception.scan_clearing import ClearingConfig, SeenFree, seen_through
 from safe_legged_c3bf.perception.track import (
     Detection,
@@ -132,6 +133,11 @@ class TrackerConfig(TypedParams):
     coast_growth_after: float = param(
         0.3, "s", "time without an update before the semi-axes start to grow: a few detection "
         "periods, so ordinary gaps between frames do not grow obstacles", NON_NEGATIVE,
+    )
+    hold_growth_inside: bool = param(
+        True, "-", "a coasting vertical track whose predicted centre lies inside a vertical "
+        "detection of the batch does not grow: what is detected there fills its place "
+        "(perception/hidden_tracks.py) (flag)", FLAG,
     )
     scan_clearing: bool = param(
         False, "-", "delete a coasting track whose place the 2-D LiDAR's beams pass right "
@@ -397,6 +403,8 @@ class MultiObstacleTracker:
             self._maneuvers += tracks[i].maneuvers - before
         for i in result.unmatched_tracks:
             tracks[i].mark_missed()
+        if self.config.hold_growth_inside:
+            self._hold_growth_inside([tracks[i] for i in result.unmatched_tracks], valid, t)
         created: list[int] = []
         for j in result.unmatched_detections:
             trk = Track(self._next_track_id, valid[j], t, self.config.track)
@@ -414,6 +422,17 @@ class MultiObstacleTracker:
         self._tracks = alive
         self._last_time = t if self._last_time is None else max(self._last_time, t)
         return UpdateReport(len(valid), rejected, len(result.matches), created, deleted)
+
+    @staticmethod
+    def _hold_growth_inside(unseen: list[Track], valid: list[Detection], t: float) -> None:
+        """Stop the growth of the unseen vertical tracks a detection covers (module doc)."""
+        unseen = [trk for trk in unseen if trk.plane is ObstaclePlane.VERTICAL]
+        if not unseen or not valid:
+            return
+        centers = np.array([trk.kf.state_at(t)[0][:2] for trk in unseen])
+        for trk, covered in zip(unseen, inside_vertical_detections(centers, valid), strict=True):
+            if covered:
+                trk.hold_growth(t)
 
     def _validated(
         self, detections: list[Detection], robot_position: Sequence[float] | np.ndarray | None
@@ -502,6 +521,6 @@ class MultiObstacleTracker:
         for trk in self._tracks:
             if self._is_stale(trk, t) or (not include_tentative and not trk.confirmed):
                 continue
-            unseen = t - trk.last_update_time - cfg.coast_growth_after
+            unseen = t - trk.growth_from - cfg.coast_growth_after
             out.append(trk.snapshot(t, cfg.coast_growth * max(unseen, 0.0)))
         return out
