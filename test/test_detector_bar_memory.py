@@ -154,8 +154,8 @@ def test_the_posts_holding_a_bar_stay_vertical_under_it(bar_z):
         assert not on_the_path(report, 2.0), pose
 
 
-def test_a_memory_older_than_bar_memory_is_forgotten():
-    detector = ObstacleDetector(DetectorConfig(bar_memory=1.0))
+def test_a_memory_older_than_bar_memory_is_forgotten_by_age_alone_without_keep_near():
+    detector = ObstacleDetector(DetectorConfig(bar_memory=1.0, bar_memory_keep_near=0.0))
     scan_frame, cloud_frame = frames([BAR], Pose(x=1.0, z=0.28), 10.0)
     detector.detect(scan=scan_frame, cloud=cloud_frame)
     under = Pose(x=2.2, z=0.22)
@@ -165,6 +165,31 @@ def test_a_memory_older_than_bar_memory_is_forgotten():
         assert bool(horizontal(report)) == remembered
         assert bool(vertical(report)) != remembered  # forgotten: the scan's cut is VERTICAL
     assert len(detector.memory) == 0
+
+
+def test_a_bar_near_the_sensors_is_kept_past_bar_memory_until_they_leave_it():
+    """Random biped seed 7 (sensors): stopped 1 m before a bar the forward sensor no longer
+    saw, the biped stood 30 s, the bar was forgotten and it walked on. Near the sensors a bar
+    stays remembered however old; it is forgotten by age once they are away from it."""
+    cfg = DetectorConfig(bar_memory=1.0)
+    detector = ObstacleDetector(cfg)
+    scan_frame, cloud_frame = frames([BAR], Pose(x=1.0, z=0.28), 10.0)
+    detector.detect(scan=scan_frame, cloud=cloud_frame)
+    stopped = Pose(x=2.2, z=0.22)  # under the bar: the cloud does not see it
+    for stamp in (10.9, 11.2, 40.0, 100.0):
+        scan_frame, _ = frames([BAR], stopped, stamp, use_cloud=False)
+        report = detector.detect(scan=scan_frame)
+        assert horizontal(report) and not vertical(report), stamp  # still the bar
+    gone = BarMemory()
+    gone.update([bar(2.5)], 10.0, 1.0, 0.05)
+    near = np.array([2.5 - 0.07 - cfg.bar_memory_keep_near + 0.01, 0.0])  # 1.99 m from its box
+    gone.update([], 100.0, 1.0, 0.05, near, cfg.bar_memory_keep_near)
+    assert len(gone) == 1
+    gone.update([], 100.1, 1.0, 0.05, near - [0.02, 0.0], cfg.bar_memory_keep_near)
+    assert len(gone) == 0  # 2.01 m away and 90 s old: forgotten
+    gone.update([bar(2.5)], 10.0, 1.0, 0.05)  # a clock that goes back still forgets it
+    gone.update([], 5.0, 1.0, 0.05, np.array([2.5, 0.0]), cfg.bar_memory_keep_near)
+    assert len(gone) == 0
 
 
 def test_a_clock_that_goes_back_or_clear_forgets_the_bars():

@@ -33,8 +33,11 @@ the last frame the 3-D sensor confirmed it, for ``bar_memory`` s:
   ``tol``, y and z intervals overlapping within ``tol``) merges into its entry; an entry
   whose centre lies inside a new detection's grown volume otherwise (a piece of a bar at an
   angle, cut elsewhere this time) is replaced by it; at most :data:`MAX_REMEMBERED_BARS`
-  are kept (the most recently seen). Entries older than ``bar_memory``, or stamped more than
-  that after the frame (the clock went back: a new run), are forgotten, and so are standing
+  are kept (the most recently seen). Entries older than ``bar_memory`` (unless the sensors
+  are within ``bar_memory_keep_near`` of them: close to a bar the forward sensor may not see
+  it, and a robot stopped before a bar it cannot pass must not walk on when the memory times
+  out), or stamped more than that after the frame (the clock went back: a new run), are
+  forgotten, and so are standing
   columns (at most :data:`MAX_STANDING_CELLS`, only near remembered bars); ``clear``
   forgets everything.
 
@@ -163,7 +166,8 @@ class BarMemory:
         self._cells, self._cells_seen = np.zeros(0, dtype=np.int64), np.zeros(0)
 
     def update(
-        self, fresh: list[DetectedObstacle], now: float, duration: float, tolerance: float
+        self, fresh: list[DetectedObstacle], now: float, duration: float, tolerance: float,
+        near: np.ndarray | None = None, keep_near: float = 0.0,
     ) -> None:
         """Forget old bars, remember ``fresh`` HORIZONTAL detections made at ``now`` (s).
 
@@ -172,9 +176,12 @@ class BarMemory:
             now: the frame's stamp (s).
             duration: ``bar_memory`` (s); 0 keeps only this frame's detections.
             tolerance: ``bar_memory_tolerance`` (m).
+            near: x, y (m, odom) of the sensors in this frame, or None.
+            keep_near: ``bar_memory_keep_near`` (m): a bar whose x-y box is within this of
+                ``near`` is kept however old (see :meth:`_kept`).
 
         """
-        self._bars = [b for b in self._bars if -duration <= now - b.last_seen <= duration]
+        self._bars = [b for b in self._bars if self._kept(b, now, duration, near, keep_near)]
         age = now - self._cells_seen
         live = (-duration <= age) & (age <= duration)
         self._cells, self._cells_seen = self._cells[live], self._cells_seen[live]
@@ -195,6 +202,30 @@ class BarMemory:
             self._bars = [RememberedBar(merged, now), *kept]
         self._bars.sort(key=lambda b: -b.last_seen)
         del self._bars[MAX_REMEMBERED_BARS:]
+
+    @staticmethod
+    def _kept(bar: RememberedBar, now: float, duration: float, near: np.ndarray | None,
+              keep_near: float) -> bool:
+        """Whether ``bar`` is still remembered at ``now`` (s).
+
+        Seen within ``duration``, or older but with the sensors within ``keep_near`` (m,
+        x-y) of its box: close to a bar the forward sensor may no longer see it (above or
+        before its view), and a robot that stopped there before a bar it cannot pass must
+        not walk into it because the memory timed out. A stamp ahead by more than
+        ``duration`` (the clock went back) forgets it; ``duration`` 0 remembers nothing.
+        """
+        age = now - bar.last_seen
+        if duration <= 0.0:
+            return age == 0.0
+        if age < -duration:
+            return False
+        if age <= duration:
+            return True
+        if near is None:
+            return False
+        box = bar.bounds()[:2]
+        gap = np.maximum(np.maximum(box[:, 0] - near, near - box[:, 1]), 0.0)
+        return float(np.hypot(*gap)) <= keep_near
 
     def stand(
         self, points: np.ndarray, now: float, cell: float, tolerance: float, reach: float

@@ -130,6 +130,7 @@ class ObstacleDetector:
         """A detector with ``config`` (defaults if None) and an empty bar memory."""
         self.config = config or DetectorConfig()
         self.memory = BarMemory()
+        self._sensors_xy: np.ndarray | None = None  # x, y (m, odom) of the newest frame
 
     def configure(self, config: DetectorConfig) -> None:
         """Use ``config`` from the next frame on; the remembered bars are kept."""
@@ -138,6 +139,7 @@ class ObstacleDetector:
     def clear(self) -> None:
         """Forget the remembered bars (a new run, odometry reset)."""
         self.memory.clear()
+        self._sensors_xy = None
 
     def detect(
         self, scan: SensorFrame | None = None, cloud: SensorFrame | None = None
@@ -174,6 +176,7 @@ class ObstacleDetector:
             view = cand.origins[members].mean(axis=0)
             fresh.extend(fit_horizontal(cand.points[members], view, self.config, bottom))
         now = max(f.stamp for f in frames)
+        self._sensors_xy = np.asarray(max(frames, key=lambda f: f.stamp).origin[:2], dtype=float)
         vertical, absorbed = self._remember(cand, grounded, vertical, fresh, now)
         obstacles = self.memory.obstacles(now, absorbed)
         remembered = sum(b.last_seen != now for b in self.memory.bars)
@@ -256,7 +259,8 @@ class ObstacleDetector:
         bar stays VERTICAL.
         """
         c = self.config
-        self.memory.update(fresh, now, c.bar_memory, c.bar_memory_tolerance)
+        self.memory.update(fresh, now, c.bar_memory, c.bar_memory_tolerance, self._sensors_xy,
+                           c.bar_memory_keep_near)
         self.memory.stand(
             cand.points[grounded], now, c.column_cell, c.bar_memory_tolerance,
             c.bar_memory_tolerance + c.cluster_tolerance,
