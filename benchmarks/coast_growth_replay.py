@@ -26,11 +26,8 @@ Usage::
 
 from __future__ import annotations
 
-import argparse
-from pathlib import Path
-
 import numpy as np
-from scan_clearing_replay import replay
+from scan_clearing_replay import off_and_on
 
 NEAR = 1.0  # m from the robot's base
 OVERSIZE = 0.3  # m beyond the nearest true obstacle's largest semi-axis
@@ -70,29 +67,8 @@ def _sample(tracks: list, truth: list, robot_xy: np.ndarray, out: dict[str, int]
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("recordings", nargs="+", type=Path, help="MCAP files")
-    ap.add_argument("--robot", choices=("quadruped", "biped"), default=None,
-                    help="robot kind (default: 'biped' if in the file name, else quadruped)")
-    args = ap.parse_args()
-    import rclpy
-
-    rclpy.init()
-    print(f"{'recording':<24} {'hold':>5} " + " ".join(f"{c:>14}" for c in COLUMNS))
-    totals: dict[bool, dict[str, int]] = {False: {}, True: {}}
-    try:
-        for path in args.recordings:
-            robot = args.robot or ("biped" if "biped" in path.name else "quadruped")
-            for hold in (False, True):
-                counts = replay(path, robot, {"hold_growth_inside": hold}, _sample)
-                for key in COLUMNS:
-                    totals[hold][key] = totals[hold].get(key, 0) + counts.get(key, 0)
-                _line(path.stem, hold, counts)
-    finally:
-        rclpy.try_shutdown()
-    for hold in (False, True):
-        _line("all", hold, totals[hold])
-    return 0
+    header = f"{'recording':<24} {'hold':>5} " + " ".join(f"{c:>14}" for c in COLUMNS)
+    return off_and_on(__doc__.split("\n\n")[0], "hold_growth_inside", header, _sample, _line)
 
 
 def _line(name: str, hold: bool, counts: dict[str, int]) -> None:

@@ -121,8 +121,16 @@ def _sample(tracks: list, truth: list, robot_xy: np.ndarray, out: dict[str, int]
             out["near_ghosts"] = out.get("near_ghosts", 0) + int(near)
 
 
-def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def off_and_on(
+    description: str, flag: str, header: str, sample: Callable | None,
+    line: Callable[[str, bool, dict[str, int]], None],
+) -> int:
+    """Replay the command line's recordings with the tracker parameter ``flag`` off, then on.
+
+    Prints ``header``, then ``line(recording, on, counts)`` per recording and both ways, and
+    the totals as recording ``all``.
+    """
+    ap = argparse.ArgumentParser(description=description)
     ap.add_argument("recordings", nargs="+", type=Path, help="MCAP files")
     ap.add_argument("--robot", choices=("quadruped", "biped"), default=None,
                     help="robot kind (default: 'biped' if in the file name, else quadruped)")
@@ -130,22 +138,27 @@ def main() -> int:
     import rclpy
 
     rclpy.init()
-    print(f"{'recording':<24} {'clearing':>8} {'track-frames':>12} {'ghosts':>7} "
-          f"{'near robot':>10} {'cleared':>7} {'wrong':>5}")
-    totals = {False: {}, True: {}}
+    print(header)
+    totals: dict[bool, dict[str, int]] = {False: {}, True: {}}
     try:
         for path in args.recordings:
             robot = args.robot or ("biped" if "biped" in path.name else "quadruped")
-            for clearing in (False, True):
-                c = replay(path, robot, {"scan_clearing": clearing})
-                for key, value in c.items():
-                    totals[clearing][key] = totals[clearing].get(key, 0) + value
-                _line(path.stem, clearing, c)
+            for on in (False, True):
+                counts = replay(path, robot, {flag: on}, sample)
+                for key, value in counts.items():
+                    totals[on][key] = totals[on].get(key, 0) + value
+                line(path.stem, on, counts)
     finally:
         rclpy.try_shutdown()
-    for clearing in (False, True):
-        _line("all", clearing, totals[clearing])
+    for on in (False, True):
+        line("all", on, totals[on])
     return 0
+
+
+def main() -> int:
+    header = (f"{'recording':<24} {'clearing':>8} {'track-frames':>12} {'ghosts':>7} "
+              f"{'near robot':>10} {'cleared':>7} {'wrong':>5}")
+    return off_and_on(__doc__.split("\n\n")[0], "scan_clearing", header, None, _line)
 
 
 def _line(name: str, clearing: bool, c: dict[str, int]) -> None:
