@@ -84,6 +84,20 @@ def test_a_clamped_reference_walks_at_the_planners_cruise_speed():
     assert late.vx == 0.15  # 0.4 was asked more than 30 s ago
 
 
+def test_a_slowed_reference_is_judged_at_the_speed_the_steering_walks():
+    """The planner slowed to 0.08 m/s (its heading error): 20 s at that speed reach 1.6 m, so
+    a bench 2.9 m ahead looked out of reach and the reference passed unsteered, although the
+    steered robot walks at its 0.4 m/s cruise and the barrier's cone (distance-free) refuses
+    the heading. The heading is judged at the cruise speed: blocked, and steered."""
+    bench = ([[2.9, 0.0]], [[0.0, 0.0]], [0.5])
+    s = ConeSteering(20.0, 0.2, 0.5, 1.5, cruise_memory=30.0)
+    s.steer(0.0, (0, 0), 0.0, 0.4, 0.0, [[9.0, 9.0]], [[0, 0]], [0.3], 1.0)  # cruise 0.4
+    assert not blocked_headings(np.zeros(1), 0.08, np.array([[2.9, 0.0]]), np.zeros((1, 2)),
+                                np.array([0.7]), 20.0)[0]  # out of reach at 0.08 m/s
+    out = s.steer(1.0, (0, 0), 0.0, 0.08, 0.0, *bench, 1.0, speed=0.1)
+    assert out.side != 0 and out.yaw_rate != 0.0
+
+
 def test_turning_towards_a_free_heading_scales_the_cruise_speed_by_the_error():
     pillar = ([[2.0, -0.05]], [[0.0, 0.0]], [0.3])
     s = ConeSteering(20.0, 0.2, 0.5, 1.5, cruise_memory=30.0)

@@ -194,7 +194,7 @@ class ConeSteering:
         psi_ref = yaw + wz_ref * self.lookahead
         # The yaw, the reference heading and the scan around the yaw in one call (the scan
         # is what a free yaw needs next; each heading's answer is its own row).
-        scan = blocked_headings(np.concatenate([[yaw, psi_ref], yaw + self._both]), vx_ref,
+        scan = blocked_headings(np.concatenate([[yaw, psi_ref], yaw + self._both]), cruise,
                                 p, w, r, self.horizon)
         yaw_blocked, ref_blocked = scan[0], scan[1]
         if not yaw_blocked:
@@ -207,7 +207,7 @@ class ConeSteering:
         if not ref_blocked:
             self.detour.reset_stall()
             return Steer(vx_ref, wz_ref, 0, True)
-        side = self._pick_side(t, psi_ref, vx_ref, p, w, r)
+        side = self._pick_side(t, psi_ref, cruise, p, w, r)
         if side is None:
             kept = self._side if t - self._side_time <= self.side_memory else 0
             if (self.detour.stalled(t, speed) and self._static_dead_end(psi_ref, cruise, p, w, r)
