@@ -103,8 +103,8 @@ class DetectorConfig(TypedParams):
     bar_memory_keep_near: float = param(
         2.0, "m", "a remembered bar whose x-y box lies within this distance of the sensors is "
         "not forgotten however long ago the 3-D sensor saw it: close to a bar the forward "
-        "sensor may not see it (random biped seed 7: stopped 1 m before a bar at 1.15 m, the "
-        "bar out of view for 30 s, then forgotten, and the biped walked on under it), and a "
+        "sensor may not see it (random biped seed 7: stopped 1 m before a bar whose underside "
+        "is at 1.15 m, out of view for 30 s, then forgotten: the biped walked on), and a "
         "robot stopped before a bar it cannot pass must not walk into it when the memory "
         "times out. 2 m: more than the 1.5 m before which the forward sensor detects a bar "
         "(benchmarks/detector_quality.py); 0 forgets by age alone", NON_NEGATIVE,
