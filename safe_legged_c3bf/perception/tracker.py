@@ -521,6 +521,6 @@ class MultiObstacleTracker:
         for trk in self._tracks:
             if self._is_stale(trk, t) or (not include_tentative and not trk.confirmed):
                 continue
-            unseen = t - trk.growth_from - cfg.coast_growth_after
-            out.append(trk.snapshot(t, cfg.coast_growth * max(unseen, 0.0)))
+            growing = t - trk.growth_from - cfg.coast_growth_after  # s the ellipse has grown
+            out.append(trk.snapshot(t, cfg.coast_growth * max(growing, 0.0)))
         return out
