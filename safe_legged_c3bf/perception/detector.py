@@ -130,7 +130,6 @@ class ObstacleDetector:
         """A detector with ``config`` (defaults if None) and an empty bar memory."""
         self.config = config or DetectorConfig()
         self.memory = BarMemory()
-        self._sensors_xy: np.ndarray | None = None  # x, y (m, odom) of the newest frame
 
     def configure(self, config: DetectorConfig) -> None:
         """Use ``config`` from the next frame on; the remembered bars are kept."""
@@ -139,7 +138,6 @@ class ObstacleDetector:
     def clear(self) -> None:
         """Forget the remembered bars (a new run, odometry reset)."""
         self.memory.clear()
-        self._sensors_xy = None
 
     def detect(
         self, scan: SensorFrame | None = None, cloud: SensorFrame | None = None
@@ -175,9 +173,10 @@ class ObstacleDetector:
         for members, bottom in horizontal:
             view = cand.origins[members].mean(axis=0)
             fresh.extend(fit_horizontal(cand.points[members], view, self.config, bottom))
-        now = max(f.stamp for f in frames)
-        self._sensors_xy = np.asarray(max(frames, key=lambda f: f.stamp).origin[:2], dtype=float)
-        vertical, absorbed = self._remember(cand, grounded, vertical, fresh, now)
+        newest = max(frames, key=lambda f: f.stamp)
+        now = newest.stamp
+        sensors_xy = np.asarray(newest.origin[:2], dtype=float)
+        vertical, absorbed = self._remember(cand, grounded, vertical, fresh, now, sensors_xy)
         obstacles = self.memory.obstacles(now, absorbed)
         remembered = sum(b.last_seen != now for b in self.memory.bars)
         labels = cluster_labels(
@@ -249,8 +248,11 @@ class ObstacleDetector:
         vertical: np.ndarray,
         fresh: list[DetectedObstacle],
         now: float,
+        sensors_xy: np.ndarray,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Remember ``fresh`` bars; the vertical candidates left and points absorbed per bar.
+
+        ``sensors_xy``: x, y (m, odom) of the newest frame's sensor (bars near it are kept).
 
         Only the floating (not grounded) vertical candidates in a remembered bar's volume,
         on the line of its cut, may be absorbed, none whose column was seen standing up into
@@ -259,7 +261,7 @@ class ObstacleDetector:
         bar stays VERTICAL.
         """
         c = self.config
-        self.memory.update(fresh, now, c.bar_memory, c.bar_memory_tolerance, self._sensors_xy,
+        self.memory.update(fresh, now, c.bar_memory, c.bar_memory_tolerance, sensors_xy,
                            c.bar_memory_keep_near)
         self.memory.stand(
             cand.points[grounded], now, c.column_cell, c.bar_memory_tolerance,
