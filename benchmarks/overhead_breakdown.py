@@ -17,8 +17,15 @@ the filtered robot, so that the rest splits into the filter's cost round static 
 and what the movers add. Runs whose static-only run missed its goal are left out of every
 column of that table.
 
+``start``: how much later than the obstacle-free run the robot is ``START_DISTANCE`` from
+where it started (ground truth, the runs' ``timeseries.npz``), in the static-only run with
+``--static``, else in the run itself: the part of the overhead paid before the robot walks.
+
 Usage: python benchmarks/overhead_breakdown.py OUT_DIR [OUT_DIR ...] [--static DIR]
        [--worst 8]
+       python benchmarks/overhead_breakdown.py OUT_DIR ... --write-static SCENARIO_DIR
+         (writes the filtered runs' scenarios without their movers and prints the
+         evaluation command that makes the --static folder)
 """
 
 from __future__ import annotations
@@ -28,9 +35,26 @@ import statistics
 import sys
 from pathlib import Path
 
+import numpy as np
+import yaml
+
 from safe_legged_c3bf.evaluation.detour_bound import detour_bound
 from safe_legged_c3bf.evaluation.results import read_csv
 from safe_legged_c3bf.sim.scenario import load_scenario
+
+#: Distance [m] from the start within which the start's delay is measured.
+START_DISTANCE = 0.3
+
+
+def time_to_leave(run_dir: str | None, distance: float = START_DISTANCE) -> float:
+    """Sim time [s] at which the base is first ``distance`` from its start; nan if never."""
+    path = Path(str(run_dir or "")) / "timeseries.npz"
+    if not path.is_file():
+        return float("nan")
+    with np.load(path) as z:
+        odom = np.asarray(z["odom"])
+    away = np.hypot(odom[:, 1] - odom[0, 1], odom[:, 2] - odom[0, 2]) >= distance
+    return float(odom[np.argmax(away), 0]) if away.any() else float("nan")
 
 
 def _scenario(row: dict):
@@ -44,14 +68,17 @@ def breakdown_rows(folders: list[Path], static: Path | None = None) -> list[dict
 
     With ``static``, only runs whose static-only run reached its goal, with its overhead.
     """
-    static_goal = {}
+    static_goal, static_dir = {}, {}
     if static is not None:
         for row in read_csv(static / "results.csv"):
             if row.get("filter") == "on" and row.get("goal_reached"):
-                static_goal[str(row["case"]).removesuffix("_static")] = float(row["goal_time"])
+                case = str(row["case"]).removesuffix("_static")
+                static_goal[case], static_dir[case] = float(row["goal_time"]), row["run_dir"]
     out = []
     for folder in folders:
-        for row in read_csv(folder / "results.csv"):
+        rows = read_csv(folder / "results.csv")
+        free_dir = {r["case"]: r["run_dir"] for r in rows if r.get("variant") == "free"}
+        for row in rows:
             if row.get("filter") != "on" or row.get("overhead_s") is None:
                 continue
             if static is not None and row["case"] not in static_goal:
@@ -63,6 +90,8 @@ def breakdown_rows(folders: list[Path], static: Path | None = None) -> list[dict
                  "rest": overhead - bound.extra_time}
             if static is not None:
                 r["static"] = static_goal[row["case"]] - free
+            walked = static_dir[row["case"]] if static is not None else row["run_dir"]
+            r["start"] = time_to_leave(walked) - time_to_leave(free_dir.get(row["case"]))
             out.append(r)
     return out
 
@@ -74,10 +103,13 @@ def _pct(rows: list[dict], key: str) -> tuple[float, float]:
 
 def print_table(rows: list[dict], worst: int) -> None:
     """The per-group table and the runs with the largest rest."""
-    keys = ["overhead", "detour", "static", "rest"] if "static" in rows[0] else [
-        "overhead", "detour", "rest"]
+    keys = ["overhead", "detour", "static", "start", "rest"] if "static" in rows[0] else [
+        "overhead", "detour", "start", "rest"]
     titles = {"overhead": "overhead", "detour": "least detour",
-              "static": "static obstacles only", "rest": "rest (overhead - least detour)"}
+              "static": "static obstacles only",
+              "start": f"of it, the first {START_DISTANCE} m"
+              + (" (static only)" if "static" in rows[0] else ""),
+              "rest": "rest (overhead - least detour)"}
     print("| robot, suite | runs | " + " | ".join(f"{titles[k]} mean / median" for k in keys)
           + " |")
     print("|---" * (len(keys) + 2) + "|")
@@ -85,8 +117,9 @@ def print_table(rows: list[dict], worst: int) -> None:
         g = [r for r in rows if r["group"] == group]
         cells = []
         for key in keys:
-            s_mean = statistics.fmean(r[key] for r in g)
-            p_mean, p_median = _pct(g, key)
+            g_key = [r for r in g if np.isfinite(r[key])]
+            s_mean = statistics.fmean(r[key] for r in g_key)
+            p_mean, p_median = _pct(g_key, key)
             cells.append(f"{s_mean:+.1f} s, {p_mean:+.0f} % / {p_median:+.0f} %")
         print(f"| {group} | {len(g)} | " + " | ".join(cells) + " |")
     print(f"\nLargest rest (overhead minus least detour), {worst} runs:")
@@ -96,6 +129,26 @@ def print_table(rows: list[dict], worst: int) -> None:
               f"least detour {r['detour']:+.1f} s{static}, rest {r['rest']:+.1f} s")
 
 
+def write_static(folders: list[Path], target: Path) -> list[Path]:
+    """Write each filtered run's scenario without its movers, named ``<name>_static``."""
+    target.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for folder in folders:
+        for row in read_csv(folder / "results.csv"):
+            copy = Path(str(row.get("run_dir") or "")) / "scenario.yaml"
+            if row.get("filter") != "on" or row.get("variant") == "free" or not copy.is_file():
+                continue
+            data = yaml.safe_load(copy.read_text(encoding="utf-8"))
+            data["obstacles"] = [o for o in data.get("obstacles") or []
+                                 if (o.get("motion") or {}).get("type", "static") == "static"]
+            data["name"] = f"{data['name']}_static"
+            data["description"] = f"movers removed: {data.get('description', '')}"
+            path = target / f"{data['name']}.yaml"
+            path.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+            paths.append(path)
+    return paths
+
+
 def main(argv: list[str] | None = None) -> int:
     """Print the breakdown of the evaluations in the given folders."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -103,7 +156,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--static", type=Path, default=None,
                         help="an evaluation of the same scenarios without their movers")
     parser.add_argument("--worst", type=int, default=8)
+    parser.add_argument("--write-static", type=Path, default=None, metavar="SCENARIO_DIR",
+                        help="write the runs' scenarios without movers here and stop")
     args = parser.parse_args(argv)
+    if args.write_static is not None:
+        paths = write_static(args.folders, args.write_static)
+        print(f"{len(paths)} scenarios in {args.write_static}; run them with\n"
+              "python -m safe_legged_c3bf.evaluate --no-free --no-baseline --out DIR "
+              + " ".join(f"--scenario {p}" for p in paths[:2]) + " ...")
+        return 0
     rows = breakdown_rows(args.folders, args.static)
     if not rows:
         print("no filtered run with an overhead (run the evaluation without --no-free)")
