@@ -384,15 +384,21 @@ def test_sensors_perception_starts_the_detector_and_the_filter_sees_its_obstacle
     sim = json.loads((run_dir / "simulator_summary.json").read_text())
     assert sim["perception_source"] == "sensors" and sim["lidar_scans"] >= 25
     # The detector's obstacles reached the filter, and once they had it filtered against them
-    # to the end, never against stale inputs. Before the first detection the filter brakes on
-    # stale obstacles; how long that lasts in sim time depends on how fast the detector's
-    # process starts against physics (wall clock: 5 % of this run on a quiet machine, 45 %
-    # with two busy cores beside it), so it is printed, not asserted.
+    # nearly to the end. Before the first detection the filter brakes on stale obstacles; how
+    # long that lasts in sim time depends on how fast the detector's process starts against
+    # physics (wall clock: 5 % of this run on a quiet machine, 45 % with two busy cores
+    # beside it), so it is printed, not asserted. Later, a detector starved of CPU can miss
+    # the 0.5 s deadline (one cycle at t = 1.4 s in a CI run at RTF 0.76): each such cycle
+    # must brake, and they must stay rare.
     with np.load(run_dir / "timeseries.npz") as z:
         state = np.asarray(z["filter_state"])
     stale = state[:, 1] == CycleStatus.STALE_INPUT
     fresh = np.flatnonzero(~stale)
     assert fresh.size, "the filter never had fresh obstacles"
-    print(f"start-up: stale obstacles until t = {state[fresh[0], 0]:.2f} s")
-    assert not stale[fresh[0]:].any(), state[fresh[0]:][stale[fresh[0]:], 0]
+    later = np.flatnonzero(stale[fresh[0]:]) + fresh[0]
+    print(f"start-up: stale obstacles until t = {state[fresh[0], 0]:.2f} s; "
+          f"{later.size} stale cycles of {len(state) - fresh[0]} after it")
+    assert later.size <= 0.05 * (len(state) - fresh[0]), state[later, 0]
+    speed = np.abs(state[:, 8])  # commanded forward speed (m/s)
+    assert np.all(speed[later] <= speed[later - 1] + 1e-6), "a stale cycle did not brake"
     assert s["filter"]["cycles"] > 100
