@@ -205,3 +205,58 @@ def test_the_a1_of_random_seed_22_turns_out_of_its_standstill():
         for _ in range(5):
             robot.step(out.command, 0.004)
     assert np.hypot(robot.x - start[0], robot.y - start[1]) > 0.1
+
+
+def test_from_rest_a_turn_settles_before_the_robot_walks_straight_along_the_free_heading():
+    """Turned in place to a free heading, still turning: the reference stops the turn first
+    (the offset body points would sweep their velocity across the cone as the robot walks
+    off), then walks straight along the heading; once walking, the usual clamp applies."""
+    pillar = ([[2.0, -0.05]], [[0.0, 0.0]], [0.3])
+    off = ConeSteering(20.0, 0.2, 0.5, 1.5, cruise_memory=30.0)  # the default: no settling
+    s = ConeSteering(20.0, 0.2, 0.5, 1.5, cruise_memory=30.0, settle_yaw_rate=0.05)
+    for steering in (off, s):
+        steering.steer(0.0, (0, 0), 0.0, 0.4, 0.0, [[9.0, 9.0]], [[0, 0]], [0.3], 1.0)
+    at_once = off.steer(1.0, (0, 0), 0.5, 0.4, -1.0, *pillar, 1.0, speed=0.0, yaw_rate=0.3)
+    assert at_once.vx == 0.4 and at_once.yaw_rate < 0.0
+    turning = s.steer(1.0, (0, 0), 0.5, 0.4, -1.0, *pillar, 1.0, speed=0.0, yaw_rate=0.3)
+    assert (turning.vx, turning.yaw_rate) == (0.0, 0.0) and turning.side == 1
+    settled = s.steer(1.5, (0, 0), 0.5, 0.4, -1.0, *pillar, 1.0, speed=0.0, yaw_rate=0.02)
+    assert (settled.vx, settled.yaw_rate) == (0.4, 0.0) and settled.side == 1
+    walking = s.steer(2.0, (0, 0), 0.5, 0.4, -1.0, *pillar, 1.0, speed=0.3, yaw_rate=0.0)
+    assert walking.vx == 0.4 and walking.yaw_rate < 0.0  # turning back towards the edge
+
+
+def test_the_a1_walks_off_from_rest_past_a_far_pillar_without_creeping():
+    """Random A1 seed 5 without its movers, in the unit harness (A1 profile): a pillar 4.2 m
+    ahead, 0.14 m off the line to the goal. The robot turned in place to a free heading and
+    was then asked to walk and turn back at once; the body point behind the base, swinging
+    sideways with the turn, capped the forward acceleration near 0.1 m/s^2, the QP turned on
+    to relax it, and the A1 crept: 0.37 m in 4 s. With the A1 profile's
+    ``steer_settle_yaw_rate`` the turn settles first: 0.88 m."""
+    from filter_harness import SimpleRobot
+
+    from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
+    from safe_legged_c3bf.planning.reference_planner import (
+        PlannerConfig,
+        ReferencePlanner,
+        RobotPose,
+    )
+    from safe_legged_c3bf.run.parameters import robot_profile
+    from safe_legged_c3bf.safety.obstacle_input import ObstacleInput
+    from safe_legged_c3bf.safety.params import FilterParams
+    from safe_legged_c3bf.safety.safety_cycle import SafetyFilterCycle
+
+    cycle = SafetyFilterCycle(FilterParams(**robot_profile("quadruped")["safety_filter"]))
+    planner = ReferencePlanner(PlannerConfig(mode="goal", max_vx=0.4, z_nominal=0.28))
+    planner.set_goal(6.676, 0.645)
+    robot = SimpleRobot(x=0.0, y=0.0, yaw=0.096, z=0.32, tau=0.1, holonomic=True)
+    pillar = [ObstacleInput("pillar_2", 0, np.array([4.185, 0.298, 0.803]), np.zeros(3),
+                            np.array([0.266, 0.206]), 1.606, 1.021)]
+    for k in range(200):  # 4 s at 50 Hz
+        t = 0.02 * k
+        ref = planner.compute(RobotPose(robot.x, robot.y, robot.yaw, robot.z), t)
+        out = cycle.step(t, VelocityCommand(ref.vx, ref.vy, ref.vz, ref.yaw_rate), t,
+                         robot.base_state(t), pillar, t)
+        for _ in range(5):
+            robot.step(out.command, 0.004)
+    assert math.hypot(robot.x, robot.y) > 0.6

@@ -199,6 +199,13 @@ class FilterParams(TypedParams):
         "as far (doc/evaluation.md, velocity tracking), stood in such windows",
         at_least(1),
     )
+    steer_settle_yaw_rate: float = param(
+        0.0, "rad/s", "cone steering from rest: a robot turned in place to a free heading walks "
+        "off only once its commanded yaw rate is below this, straight along the heading (a "
+        "turn that goes on sweeps the offset body points' velocities across the cone and the "
+        "QP creeps); 0: off, it walks off turning back towards the cone's edge",
+        NON_NEGATIVE,
+    )
     deadlock_speed: float = param(
         0.05, "m/s", "the robot is deadlocked when the filter holds its commanded forward "
         "speed below this while the reference asks for more (unicycle model)", NON_NEGATIVE,

@@ -44,7 +44,7 @@ class ReferenceShaping:
         self.steering = ConeSteering(
             params.steer_horizon, cover_half_width(body), params.steer_lookahead,
             params.steer_gain, cruise_memory=params.steer_cruise_memory,
-            min_run=params.steer_min_free_run,
+            min_run=params.steer_min_free_run, settle_yaw_rate=params.steer_settle_yaw_rate,
         )
         self.escape = EscapeShaping.for_body(body, params.escape_horizon)
         self.turning_escape = TurningEscapeShaping.for_body(body, params.escape_horizon)
@@ -58,7 +58,8 @@ class ReferenceShaping:
         return self.body is not None and p.model in TURNING_MODELS and p.steer_horizon > 0.0
 
     def shape(self, t: float, ref_arr: np.ndarray, circles, ids, walled: np.ndarray,  # noqa: ANN001
-              pos: np.ndarray, yaw: float, vx_command: float) -> tuple[str, bool]:
+              pos: np.ndarray, yaw: float, vx_command: float,
+              yaw_rate_command: float = 0.0) -> tuple[str, bool]:
         """Shape ``ref_arr`` in place; returns (what was done, escaping).
 
         Args:
@@ -71,6 +72,8 @@ class ReferenceShaping:
             yaw: base yaw [rad].
             vx_command: the commanded forward speed [m/s] (the steering turns in place first
                 below ``cone_steering.START_SPEED``).
+            yaw_rate_command: the commanded yaw rate [rad/s] (from rest, the steering lets
+                a turn settle before the robot walks).
 
         """
         if self.body is None:
@@ -78,13 +81,15 @@ class ReferenceShaping:
         vertical = np.asarray(circles.plane) == 0
         if not vertical.any():
             return "", False
-        text = self._steer(t, ref_arr, circles, vertical & ~walled, pos, yaw, vx_command)
+        text = self._steer(t, ref_arr, circles, vertical & ~walled, pos, yaw, vx_command,
+                           yaw_rate_command)
         if walled.any():
             text += self._hold_before_walls(ref_arr, circles, walled, ids, pos, yaw)
         escape = self._escaped(ref_arr, circles, vertical, pos, yaw, vx_command)
         return text + escape, bool(escape)
 
-    def _steer(self, t, ref_arr, circles, mask, pos, yaw, vx_command) -> str:  # noqa: ANN001
+    def _steer(self, t, ref_arr, circles, mask, pos, yaw, vx_command,  # noqa: ANN001
+               yaw_rate_command) -> str:
         """Cone steering over the circles in ``mask`` (unicycle models); what it did."""
         p = self.params
         if not self.steers or not mask.any():
@@ -92,6 +97,7 @@ class ReferenceShaping:
         out = self.steering.steer(
             t, pos, yaw, float(ref_arr[0]), float(ref_arr[3]), circles.center[mask],
             circles.velocity[mask], circles.radius[mask], p.max_yaw_rate, vx_command,
+            yaw_rate_command,
         )
         if out.side == 0:
             return "" if out.free else " (no free heading: following)"
