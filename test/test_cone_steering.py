@@ -169,24 +169,8 @@ def test_the_a1_of_random_seed_22_turns_out_of_its_standstill():
     the planner's between two cones. The steering aimed two steps past it, at the robot's own
     yaw: it stood (6 mm in 5 s; in the run, 15 s). Now it turns to the free heading and walks
     (0.34 m in those 5 s)."""
-    from filter_harness import SimpleRobot
-
-    from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
-    from safe_legged_c3bf.planning.reference_planner import (
-        PlannerConfig,
-        ReferencePlanner,
-        RobotPose,
-    )
-    from safe_legged_c3bf.run.parameters import robot_profile
     from safe_legged_c3bf.safety.obstacle_input import ObstacleInput
-    from safe_legged_c3bf.safety.params import FilterParams
-    from safe_legged_c3bf.safety.safety_cycle import SafetyFilterCycle
 
-    cycle = SafetyFilterCycle(FilterParams(**robot_profile("quadruped")["safety_filter"]))
-    planner = ReferencePlanner(PlannerConfig(mode="goal", max_vx=0.4, z_nominal=0.28))
-    planner.set_goal(6.05, 0.0)
-    robot = SimpleRobot(x=-0.72, y=0.27, yaw=math.radians(-32.4), z=0.28, tau=0.1,
-                        holonomic=True)
     obstacles = [  # the run's, the two walkers where they had stopped
         ObstacleInput(name, plane, np.array(c), np.zeros(3), np.array(ab), extent, th)
         for name, plane, c, ab, extent, th in [
@@ -196,15 +180,9 @@ def test_the_a1_of_random_seed_22_turns_out_of_its_standstill():
             ("side_bench_3", 0, (4.784, 1.146, 0.83), (0.626, 0.209), 1.66, -0.053),
             ("crossing_4", 0, (4.04, -1.51, 0.65), (0.157, 0.155), 1.29, -1.65),
             ("side_bench_5", 0, (1.633, -1.405, 0.6), (0.781, 0.243), 1.22, -0.005)]]
-    start = np.array([robot.x, robot.y])
-    for k in range(250):  # 5 s at 50 Hz
-        t = 0.02 * k
-        ref = planner.compute(RobotPose(robot.x, robot.y, robot.yaw, robot.z), t)
-        out = cycle.step(t, VelocityCommand(ref.vx, ref.vy, ref.vz, ref.yaw_rate), t,
-                         robot.base_state(t), obstacles, t)
-        for _ in range(5):
-            robot.step(out.command, 0.004)
-    assert np.hypot(robot.x - start[0], robot.y - start[1]) > 0.1
+    walked = _a1_closed_loop((-0.72, 0.27, math.radians(-32.4), 0.28), (6.05, 0.0),
+                             obstacles, 5.0)
+    assert walked > 0.1
 
 
 def test_from_rest_a_turn_settles_before_the_robot_walks_straight_along_the_free_heading():
@@ -233,6 +211,16 @@ def test_the_a1_walks_off_from_rest_past_a_far_pillar_without_creeping():
     sideways with the turn, capped the forward acceleration near 0.1 m/s^2, the QP turned on
     to relax it, and the A1 crept: 0.37 m in 4 s. With the A1 profile's
     ``steer_settle_yaw_rate`` the turn settles first: 0.88 m."""
+    from safe_legged_c3bf.safety.obstacle_input import ObstacleInput
+
+    pillar = [ObstacleInput("pillar_2", 0, np.array([4.185, 0.298, 0.803]), np.zeros(3),
+                            np.array([0.266, 0.206]), 1.606, 1.021)]
+    assert _a1_closed_loop((0.0, 0.0, 0.096, 0.32), (6.676, 0.645), pillar, 4.0) > 0.6
+
+
+def _a1_closed_loop(pose, goal, obstacles, seconds) -> float:
+    """Distance [m] the harness A1 walks from ``pose`` (x, y, yaw, z) towards ``goal`` in
+    ``seconds`` of closed loop (A1 profile, goal planner, first-order robot, 50 Hz)."""
     from filter_harness import SimpleRobot
 
     from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
@@ -242,21 +230,18 @@ def test_the_a1_walks_off_from_rest_past_a_far_pillar_without_creeping():
         RobotPose,
     )
     from safe_legged_c3bf.run.parameters import robot_profile
-    from safe_legged_c3bf.safety.obstacle_input import ObstacleInput
     from safe_legged_c3bf.safety.params import FilterParams
     from safe_legged_c3bf.safety.safety_cycle import SafetyFilterCycle
 
     cycle = SafetyFilterCycle(FilterParams(**robot_profile("quadruped")["safety_filter"]))
     planner = ReferencePlanner(PlannerConfig(mode="goal", max_vx=0.4, z_nominal=0.28))
-    planner.set_goal(6.676, 0.645)
-    robot = SimpleRobot(x=0.0, y=0.0, yaw=0.096, z=0.32, tau=0.1, holonomic=True)
-    pillar = [ObstacleInput("pillar_2", 0, np.array([4.185, 0.298, 0.803]), np.zeros(3),
-                            np.array([0.266, 0.206]), 1.606, 1.021)]
-    for k in range(200):  # 4 s at 50 Hz
+    planner.set_goal(*goal)
+    robot = SimpleRobot(x=pose[0], y=pose[1], yaw=pose[2], z=pose[3], tau=0.1, holonomic=True)
+    for k in range(int(round(seconds / 0.02))):
         t = 0.02 * k
         ref = planner.compute(RobotPose(robot.x, robot.y, robot.yaw, robot.z), t)
         out = cycle.step(t, VelocityCommand(ref.vx, ref.vy, ref.vz, ref.yaw_rate), t,
-                         robot.base_state(t), pillar, t)
+                         robot.base_state(t), obstacles, t)
         for _ in range(5):
             robot.step(out.command, 0.004)
-    assert math.hypot(robot.x, robot.y) > 0.6
+    return math.hypot(robot.x - pose[0], robot.y - pose[1])
