@@ -82,16 +82,17 @@ class _Grid:
     def inside_ellipse(self, centre, a: float, b: float, angle: float) -> np.ndarray:
         """Cells whose whole square lies inside the ellipse (semi-axes ``a``, ``b``).
 
-        The centre must lie inside the ellipse of semi-axes shrunk by a half diagonal,
-        which lies inside the ellipse's inner parallel curve at that distance.
+        Both are convex, so a square lies inside when its four corners do.
         """
-        shrink = CELL * math.sqrt(0.5)
-        a, b = a - shrink, b - shrink
         if a <= 0.0 or b <= 0.0:
             return np.zeros_like(self.x, dtype=bool)
         c, s = math.cos(angle), math.sin(angle)
-        dx, dy = self.x - centre[0], self.y - centre[1]
-        return ((c * dx + s * dy) / a) ** 2 + ((-s * dx + c * dy) / b) ** 2 <= 1.0
+        inside = np.ones_like(self.x, dtype=bool)
+        for ox in (-0.5 * CELL, 0.5 * CELL):
+            for oy in (-0.5 * CELL, 0.5 * CELL):
+                dx, dy = self.x + ox - centre[0], self.y + oy - centre[1]
+                inside &= ((c * dx + s * dy) / a) ** 2 + ((-s * dx + c * dy) / b) ** 2 <= 1.0
+        return inside
 
 
 def occupancy(grid: _Grid, obstacles: list[ObstacleConfig], times: np.ndarray,
@@ -173,7 +174,7 @@ def reach_bound(scenario: Scenario) -> ReachBound:
     cruise = float(scenario.planner.speed or PlannerConfig().max_vx)
     blocked = occupancy(grid, vertical, times, TRUNK_RADIUS[scenario.robot.kind])
     cell = grid.cell(start)
-    free = earliest_arrival(np.zeros((len(times), 1, 1), dtype=bool).repeat(
-        grid.x.shape[0], 1).repeat(grid.x.shape[1], 2), cell, goal_cells, cruise)
+    nothing = np.broadcast_to(np.zeros((1,) + grid.x.shape, dtype=bool), blocked.shape)
+    free = earliest_arrival(nothing, cell, goal_cells, cruise)
     with_obstacles = earliest_arrival(blocked, cell, goal_cells, cruise)
     return ReachBound(with_obstacles, free, with_obstacles - free)
