@@ -43,12 +43,6 @@ without movers, in the unit harness of test/filter_harness.py; 0.88 m with 0.05 
 A1 profile's). The biped profile keeps it off: over random biped seeds 0-19 it reached 13
 goals of 17 with it against 16 without.
 
-A mover's side (``speed_limits``, :func:`mover_side_locks`): the barrier never lets the
-robot's velocity cross a mover's collision cone, and a mover closing in faster than the robot
-can back away puts the cone's apex out of reach, so the velocity keeps the side of the cone
-it is on. Headings on the far side count as blocked, however clear their paths: the steering
-goes round an obstacle on the side the QP has already stepped the robot to.
-
 Out of a standstill: with no free heading (``stall_detour``), or in a standoff, the robot
 turning to and fro in place between the steering's free heading and the planner's blocked
 one (``ConeSteering._standoff``), a committed detour round the blocked headings.
@@ -130,66 +124,6 @@ def blocked_headings(psi, speed, p, w, radius, horizon) -> np.ndarray:
     return np.isfinite(first_contact_times(speed * d, p, w, radius, horizon))
 
 
-def mover_side_locks(v0, yaw: float, limits, p, w, radius):  # noqa: ANN201
-    """Each mover's side the robot's velocity is held to: ``(axis, apex, side)``.
-
-    The barrier keeps the robot's velocity ``v`` out of mover ``i``'s collision cone, the
-    cone ``w_i + {u : angle(u, p_i) <= asin(r_i / ||p_i||)}`` in velocity space (``p_i``: the
-    obstacle's centre minus the robot's, ``r_i`` the contact distance). A mover closing in
-    faster than the robot can back away from it along ``p_i`` (at its present heading, within
-    ``limits`` = (forward, reverse, lateral) [m/s]) puts the cone's apex out of reach: a
-    velocity on one side of the cone can reach the other side only through the cone, which
-    the barrier forbids. So a heading on the other side is not free, however clear its path:
-    asked to walk it, the robot is braked (random biped seed 17: the steering turned left,
-    round a bench, while the QP had stepped the biped out of a head-on walker's cone to the
-    right; it backed away at 2 cm/s for 20 s).
-
-    Args:
-        v0: ``(2,)`` the robot's commanded velocity [m/s] (odom).
-        yaw: its heading [rad].
-        limits: its (forward, reverse, lateral) speed limits [m/s].
-        p: ``(n, 2)`` the obstacles' centres minus the robot's [m].
-        w: ``(n, 2)`` their velocities [m/s].
-        radius: ``(n,)`` their contact distances [m].
-
-    Returns:
-        ``axis`` ``(n, 2)`` unit vectors along ``p``, ``apex`` ``(n, 2)`` = ``w`` and
-        ``side`` ``(n,)``: +1 (left of the axis) or -1 the side ``v0`` is held to, 0 for no
-        lock (a static or receding obstacle, ``v0`` inside the cone or on its axis, an apex
-        within reach, a robot inside the circle).
-
-    """
-    dist = np.hypot(p[:, 0], p[:, 1])
-    axis = p / np.maximum(dist, 1e-9)[:, None]
-    closing = -(w * axis).sum(-1)  # the mover's speed towards the robot [m/s]
-    forward, reverse, lateral = limits
-    along = axis @ np.array([math.cos(yaw), math.sin(yaw)])  # heading . axis
-    across = np.abs(axis @ np.array([-math.sin(yaw), math.cos(yaw)]))
-    backing = np.where(along > 0.0, reverse * along, -forward * along) + lateral * across
-    rel = v0[None, :] - w
-    cross = axis[:, 0] * rel[:, 1] - axis[:, 1] * rel[:, 0]
-    dot = (axis * rel).sum(-1)
-    sin_cone = radius / np.maximum(dist, 1e-9)
-    outside = (dot <= 0.0) | (np.abs(cross) > sin_cone * np.hypot(rel[:, 0], rel[:, 1]))
-    locked = ((np.hypot(w[:, 0], w[:, 1]) >= STATIC_SPEED) & (closing > backing)
-              & (dist > radius) & outside & (np.abs(cross) > 1e-9))
-    return axis, w, np.where(locked, np.sign(cross), 0.0)
-
-
-def locked_headings(psi, speed, axis, apex, side) -> np.ndarray:
-    """``(k,)`` bool: heading ``psi[j]`` at ``speed`` [m/s] lies on a locked mover's far side.
-
-    ``axis``, ``apex``, ``side``: :func:`mover_side_locks`' output.
-    """
-    on = side != 0.0
-    if not on.any():
-        return np.zeros(len(psi), dtype=bool)
-    v = speed * np.stack([np.cos(psi), np.sin(psi)], -1)  # (k, 2)
-    rel = v[:, None, :] - apex[None, on]  # (k, m, 2)
-    cross = axis[None, on, 0] * rel[..., 1] - axis[None, on, 1] * rel[..., 0]
-    return (cross * side[None, on] < 0.0).any(axis=1)
-
-
 STANDOFF_REVERSALS = 2
 """Turns back of the yaw (left, right, left) that make a long standstill a standoff."""
 SWING = math.radians(10.0)
@@ -222,8 +156,7 @@ class ConeSteering:
     def __init__(self, horizon: float, robot_radius: float, lookahead: float,
                  heading_gain: float, heading_step: float = math.radians(5.0),
                  side_memory: float = 3.0, cruise_memory: float = 0.0,
-                 min_run: int = 1, settle_yaw_rate: float = 0.0,
-                 speed_limits: tuple[float, float, float] | None = None) -> None:
+                 min_run: int = 1, settle_yaw_rate: float = 0.0) -> None:
         """Configure the steering (units in the arguments' descriptions).
 
         ``horizon`` [s], ``robot_radius`` [m], ``lookahead`` [s] (reference heading = yaw +
@@ -232,10 +165,8 @@ class ConeSteering:
         reference keeps its own forward speed; see the module docstring), ``min_run``: the
         fewest free grid headings a run must hold to be turned to
         (``stall_detour.first_free_offset``), ``settle_yaw_rate`` [rad/s] (0: off; see the
-        module docstring), ``speed_limits``: the robot's (forward, reverse, lateral) speed
-        limits [m/s] for :func:`mover_side_locks` (None: no side locks).
+        module docstring).
         """
-        self.speed_limits = speed_limits
         self.horizon, self.robot_radius = horizon, robot_radius
         self.lookahead, self.heading_gain = lookahead, heading_gain
         self.side_memory, self.cruise_memory = side_memory, cruise_memory
@@ -252,14 +183,13 @@ class ConeSteering:
 
     def steer(self, t: float, pos, yaw: float, vx_ref: float, wz_ref: float,
               centers, velocities, radii, max_yaw_rate: float, speed: float = 0.0,
-              yaw_rate: float = 0.0, lateral: float = 0.0) -> Steer:
+              yaw_rate: float = 0.0) -> Steer:
         """The shaped reference at time ``t`` [s] (see :class:`Steer`).
 
         ``speed``: the robot's commanded forward speed [m/s]; below ``START_SPEED`` a robot
         whose heading is blocked turns in place before it walks. ``yaw_rate``: its commanded
         yaw rate [rad/s]; from rest on a free heading, with ``settle_yaw_rate``, the turn
-        settles below it before the robot walks, straight. ``lateral``: its commanded lateral
-        speed [m/s] (with ``speed``, the velocity that fixes its side of each mover's cone).
+        settles below it before the robot walks, straight.
         """
         cruise = self._cruise(t, vx_ref)
         if len(radii) == 0 or self.horizon <= 0.0:
@@ -268,10 +198,9 @@ class ConeSteering:
         p = np.asarray(centers, dtype=float) - np.asarray(pos, dtype=float)[:2]
         w = np.asarray(velocities, dtype=float)
         r = np.asarray(radii, dtype=float) + self.robot_radius
-        locks = self._locks(yaw, speed, lateral, p, w, r)
 
         def blocked(psi: np.ndarray) -> np.ndarray:  # at the planner's cruise speed
-            return self._blocked(psi, max(cruise, 1e-3), p, w, r, locks)
+            return blocked_headings(psi, max(cruise, 1e-3), p, w, r, self.horizon)
 
         detour = self._detour_step(t, yaw, speed, cruise, vx_ref, wz_ref, max_yaw_rate, blocked)
         if detour is None:
@@ -285,8 +214,8 @@ class ConeSteering:
         psi_ref = yaw + wz_ref * self.lookahead
         # The yaw, the reference heading and the scan around the yaw in one call (the scan
         # is what a free yaw needs next; each heading's answer is its own row).
-        scan = self._blocked(np.concatenate([[yaw, psi_ref], yaw + self._both]), cruise,
-                             p, w, r, locks)
+        scan = blocked_headings(np.concatenate([[yaw, psi_ref], yaw + self._both]), cruise,
+                                p, w, r, self.horizon)
         yaw_blocked, ref_blocked = scan[0], scan[1]
         if not yaw_blocked:
             self.detour.reset_stall()
@@ -302,7 +231,7 @@ class ConeSteering:
         if not ref_blocked:
             self.detour.reset_stall()
             return Steer(vx_ref, wz_ref, 0, True)
-        side = self._pick_side(t, psi_ref, cruise, p, w, r, locks)
+        side = self._pick_side(t, psi_ref, cruise, p, w, r)
         if side is None:
             kept = self._side if t - self._side_time <= self.side_memory else 0
             if (self.detour.stalled(t, speed) and self._static_dead_end(psi_ref, cruise, p, w, r)
@@ -322,22 +251,6 @@ class ConeSteering:
         if speed < START_SPEED:
             return Steer(0.0, wz, offset_side, True)
         return Steer(max(vx_ref, cruise) * max(math.cos(error), 0.0), wz, offset_side, True)
-
-    def _blocked(self, psi, speed, p, w, r, locks) -> np.ndarray:
-        """``(k,)`` bool: heading ``psi[j]`` at ``speed`` is blocked or on a locked side."""
-        out = blocked_headings(psi, speed, p, w, r, self.horizon)
-        if locks is not None:
-            out |= locked_headings(psi, speed, *locks)
-        return out
-
-    def _locks(self, yaw, speed, lateral, p, w, r):  # noqa: ANN202
-        """The cycle's :func:`mover_side_locks` (None: none, or no speed limits given)."""
-        if self.speed_limits is None or not len(r):
-            return None
-        c, s = math.cos(yaw), math.sin(yaw)
-        v0 = np.array([c * speed - s * lateral, s * speed + c * lateral])
-        locks = mover_side_locks(v0, yaw, self.speed_limits, p, w, r)
-        return locks if locks[2].any() else None
 
     def _detour_step(self, t, yaw, speed, cruise, vx_ref, wz_ref, max_yaw_rate,
                      blocked) -> Steer | None:
@@ -440,10 +353,10 @@ class ConeSteering:
         wz = max(-max_yaw_rate, min(max_yaw_rate, self.heading_gain * clamped))
         return Steer(vx_ref, wz, 1 if clamped > error else -1, True)
 
-    def _pick_side(self, t, psi_ref, speed, p, w, r, locks) -> tuple[int, float] | None:
+    def _pick_side(self, t, psi_ref, speed, p, w, r) -> tuple[int, float] | None:
         """(side, heading offset [rad]) of the nearest free heading; the kept side first."""
         best = {}
-        both = ~self._blocked(psi_ref + self._both, speed, p, w, r, locks)
+        both = ~blocked_headings(psi_ref + self._both, speed, p, w, r, self.horizon)
         for side, offsets, free in ((1, self._left, both[:self._n]),
                                     (-1, self._right, both[self._n:])):
             offset = first_free_offset(free, offsets, EDGE_STEPS, self.detour.min_run)  # off edge

@@ -206,12 +206,6 @@ class FilterParams(TypedParams):
         "QP creeps); 0: off, it walks off turning back towards the cone's edge",
         NON_NEGATIVE,
     )
-    steer_mover_sides: bool = param(
-        True, "-", "cone steering: a mover closing in faster than the robot can back away "
-        "holds the robot's velocity to the side of its collision cone it is on (the barrier "
-        "forbids crossing the cone), so headings on the far side count as blocked "
-        "(safety/cone_steering.py, mover_side_locks); false: every clear heading is free", FLAG,
-    )
     deadlock_speed: float = param(
         0.05, "m/s", "the robot is deadlocked when the filter holds its commanded forward "
         "speed below this while the reference asks for more (unicycle model)", NON_NEGATIVE,

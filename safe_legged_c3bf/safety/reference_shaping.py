@@ -45,7 +45,6 @@ class ReferenceShaping:
             params.steer_horizon, cover_half_width(body), params.steer_lookahead,
             params.steer_gain, cruise_memory=params.steer_cruise_memory,
             min_run=params.steer_min_free_run, settle_yaw_rate=params.steer_settle_yaw_rate,
-            speed_limits=_side_lock_limits(params),
         )
         self.escape = EscapeShaping.for_body(body, params.escape_horizon)
         self.turning_escape = TurningEscapeShaping.for_body(body, params.escape_horizon)
@@ -60,7 +59,7 @@ class ReferenceShaping:
 
     def shape(self, t: float, ref_arr: np.ndarray, circles, ids, walled: np.ndarray,  # noqa: ANN001
               pos: np.ndarray, yaw: float, vx_command: float,
-              yaw_rate_command: float = 0.0, vy_command: float = 0.0) -> tuple[str, bool]:
+              yaw_rate_command: float = 0.0) -> tuple[str, bool]:
         """Shape ``ref_arr`` in place; returns (what was done, escaping).
 
         Args:
@@ -75,8 +74,6 @@ class ReferenceShaping:
                 below ``cone_steering.START_SPEED``).
             yaw_rate_command: the commanded yaw rate [rad/s] (from rest, the steering lets
                 a turn settle before the robot walks).
-            vy_command: the commanded lateral speed [m/s] (with ``vx_command``, the side of
-                each mover's cone the steering keeps to).
 
         """
         if self.body is None:
@@ -84,25 +81,23 @@ class ReferenceShaping:
         vertical = np.asarray(circles.plane) == 0
         if not vertical.any():
             return "", False
-        text = self._steer(t, ref_arr, circles, vertical & ~walled, pos, yaw,
-                           (vx_command, vy_command, yaw_rate_command))
+        text = self._steer(t, ref_arr, circles, vertical & ~walled, pos, yaw, vx_command,
+                           yaw_rate_command)
         if walled.any():
             text += self._hold_before_walls(ref_arr, circles, walled, ids, pos, yaw)
         escape = self._escaped(ref_arr, circles, vertical, pos, yaw, vx_command)
         return text + escape, bool(escape)
 
-    def _steer(self, t, ref_arr, circles, mask, pos, yaw, command) -> str:  # noqa: ANN001
-        """Cone steering over the circles in ``mask`` (unicycle models); what it did.
-
-        ``command``: the commanded (vx, vy, yaw rate) [m/s, rad/s].
-        """
+    def _steer(self, t, ref_arr, circles, mask, pos, yaw, vx_command,  # noqa: ANN001
+               yaw_rate_command) -> str:
+        """Cone steering over the circles in ``mask`` (unicycle models); what it did."""
         p = self.params
         if not self.steers or not mask.any():
             return ""
         out = self.steering.steer(
             t, pos, yaw, float(ref_arr[0]), float(ref_arr[3]), circles.center[mask],
-            circles.velocity[mask], circles.radius[mask], p.max_yaw_rate, command[0],
-            command[2], command[1],
+            circles.velocity[mask], circles.radius[mask], p.max_yaw_rate, vx_command,
+            yaw_rate_command,
         )
         if out.side == 0:
             return "" if out.free else " (no free heading: following)"
@@ -155,17 +150,6 @@ class ReferenceShaping:
         ref_arr[1], ref_arr[3] = 0.0, turn
         return (f" (escaping a mover: turn {math.degrees(out.heading):+.0f} deg, then "
                 f"{out.vx:+.2f} m/s; contact ahead {_ahead(out.contact_time)})")
-
-
-def _side_lock_limits(params: FilterParams) -> tuple[float, float, float] | None:
-    """The steering's (forward, reverse, lateral) speed limits [m/s] for its side locks.
-
-    None when ``steer_mover_sides`` is off.
-    """
-    if not params.steer_mover_sides:
-        return None
-    lateral = params.max_lateral_speed if params.model in LATERAL_MODELS else 0.0
-    return (params.max_speed, params.max_reverse_speed, lateral)
 
 
 def _ahead(contact_time: float) -> str:

@@ -375,7 +375,7 @@ class SafetyFilterCycle:
         p, v = self.params, self._v
         ref_arr = ref.as_array()  # vx, vy, vz, wz
         shaped, escape = self.shaping.shape(t, ref_arr, circles, ids, walled, pos, yaw,
-                                            float(v[0]), float(v[3]), float(v[1]))
+                                            float(v[0]), float(v[3]))
         deadlocked = (p.model in TURNING_MODELS and self._body is None  # body: cone steering
                       and self._deadlock_turn(t, ref_arr, circles, pos, yaw))
         state, u_ref, idx = self._model_problem(ref_arr, pos, yaw, 1.0 / dt if escape else None)
