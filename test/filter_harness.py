@@ -70,6 +70,57 @@ class ScriptedObstacle:
         )
 
 
+@dataclass
+class Walker:
+    """A vertical obstacle that walks from ``start`` to ``end`` (odom, m) at ``speed`` (m/s)
+    from ``start_time`` (s), then stands; ``end`` None: it always stands."""
+
+    id: str
+    start: tuple[float, float]
+    end: tuple[float, float] | None = None
+    speed: float = 0.0
+    start_time: float = 0.0
+    semi_axes: tuple[float, float] = (0.25, 0.25)
+    extent: float = 1.0
+    orientation: float = 0.0
+    plane: int = 0
+
+    def at(self, t: float) -> ObstacleInput:
+        pos, vel = np.array(self.start, float), np.zeros(2)
+        if self.end is not None:
+            path = np.subtract(self.end, self.start)
+            length = float(np.hypot(*path))
+            walked = min(max(t - self.start_time, 0.0) * self.speed, length)
+            pos = pos + path * walked / length
+            if 0.0 < walked < length:
+                vel = path * self.speed / length
+        return ObstacleInput(self.id, 0, np.array([*pos, 0.5 * self.extent]),
+                             np.array([*vel, 0.0]), np.asarray(self.semi_axes, float),
+                             self.extent, self.orientation)
+
+
+def goal_closed_loop(cycle, planner, robot: SimpleRobot, obstacles, t0: float,
+                     seconds: float, watch=None) -> None:  # noqa: ANN001
+    """Run ``seconds`` of closed loop from sim time ``t0`` at 50 Hz (the robot at 250 Hz).
+
+    ``cycle``: a ``SafetyFilterCycle``; ``planner``: a ``ReferencePlanner`` with its goal
+    set; ``obstacles``: ``ObstacleInput`` or objects with ``at(t)`` (``Walker``,
+    ``ScriptedObstacle``); ``watch(t)``: called after each cycle.
+    """
+    from safe_legged_c3bf.planning.reference_planner import RobotPose
+
+    for k in range(int(round(seconds / 0.02))):
+        t = t0 + 0.02 * k
+        ref = planner.compute(RobotPose(robot.x, robot.y, robot.yaw, robot.z), t)
+        out = cycle.step(t, VelocityCommand(ref.vx, ref.vy, ref.vz, ref.yaw_rate), t,
+                         robot.base_state(t),
+                         [o.at(t) if hasattr(o, "at") else o for o in obstacles], t)
+        for _ in range(5):
+            robot.step(out.command, 0.004)
+        if watch is not None:
+            watch(t)
+
+
 def clearance(robot: SimpleRobot, ob: ScriptedObstacle, t: float, offset: float) -> float:
     """Distance from the robot's body point to the obstacle's enclosing circle (m)."""
     o = ob.at(t)

@@ -221,14 +221,9 @@ def test_the_a1_walks_off_from_rest_past_a_far_pillar_without_creeping():
 def _a1_closed_loop(pose, goal, obstacles, seconds) -> float:
     """Distance [m] the harness A1 walks from ``pose`` (x, y, yaw, z) towards ``goal`` in
     ``seconds`` of closed loop (A1 profile, goal planner, first-order robot, 50 Hz)."""
-    from filter_harness import SimpleRobot
+    from filter_harness import SimpleRobot, goal_closed_loop
 
-    from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
-    from safe_legged_c3bf.planning.reference_planner import (
-        PlannerConfig,
-        ReferencePlanner,
-        RobotPose,
-    )
+    from safe_legged_c3bf.planning.reference_planner import PlannerConfig, ReferencePlanner
     from safe_legged_c3bf.run.parameters import robot_profile
     from safe_legged_c3bf.safety.params import FilterParams
     from safe_legged_c3bf.safety.safety_cycle import SafetyFilterCycle
@@ -237,13 +232,7 @@ def _a1_closed_loop(pose, goal, obstacles, seconds) -> float:
     planner = ReferencePlanner(PlannerConfig(mode="goal", max_vx=0.4, z_nominal=0.28))
     planner.set_goal(*goal)
     robot = SimpleRobot(x=pose[0], y=pose[1], yaw=pose[2], z=pose[3], tau=0.1, holonomic=True)
-    for k in range(int(round(seconds / 0.02))):
-        t = 0.02 * k
-        ref = planner.compute(RobotPose(robot.x, robot.y, robot.yaw, robot.z), t)
-        out = cycle.step(t, VelocityCommand(ref.vx, ref.vy, ref.vz, ref.yaw_rate), t,
-                         robot.base_state(t), obstacles, t)
-        for _ in range(5):
-            robot.step(out.command, 0.004)
+    goal_closed_loop(cycle, planner, robot, obstacles, 0.0, seconds)
     return math.hypot(robot.x - pose[0], robot.y - pose[1])
 
 
@@ -263,55 +252,29 @@ def test_the_biped_of_random_seed_17_passes_a_head_on_walker():
 
 def _biped_seed_17() -> float:
     """Distance [m] from the goal after 30 s of the harness biped in random biped seed 17."""
-    from filter_harness import SimpleRobot
+    from filter_harness import SimpleRobot, Walker, goal_closed_loop
 
-    from safe_legged_c3bf.interfaces.gait_controller import VelocityCommand
-    from safe_legged_c3bf.planning.reference_planner import (
-        PlannerConfig,
-        ReferencePlanner,
-        RobotPose,
-    )
+    from safe_legged_c3bf.planning.reference_planner import PlannerConfig, ReferencePlanner
     from safe_legged_c3bf.run.parameters import robot_profile
-    from safe_legged_c3bf.safety.obstacle_input import ObstacleInput
     from safe_legged_c3bf.safety.params import FilterParams
     from safe_legged_c3bf.safety.safety_cycle import SafetyFilterCycle
 
     profile = robot_profile("biped")
-    params = FilterParams(**profile["safety_filter"]).updated(max_reverse_speed=0.1,
-                                                             max_yaw_accel=0.8)
-    cycle = SafetyFilterCycle(params)  # the scenario's filter section, as the bringup's
+    params = FilterParams(**profile["safety_filter"]).updated(  # the scenario's filter section
+        max_reverse_speed=0.1, max_yaw_accel=0.8, min_height=0.7, max_height=0.9)
+    cycle = SafetyFilterCycle(params)
     planner = ReferencePlanner(PlannerConfig(mode="goal", max_vx=0.2, z_nominal=0.81,
                                              **profile["reference_planner"]))
     goal = (0.351, 3.375)
     planner.set_goal(*goal)
     robot = SimpleRobot(yaw=1.467, z=0.81, tau=0.3, holonomic=True)
-    # (id, start, end, speed [m/s], start time [s], semi-axes, height, orientation)
-    scripts = [("bench_0", (0.163, 1.394), None, 0.0, 0.0, (0.54, 0.165), 1.43, 2.934),
-               ("head_on_1", (0.697, 4.482), (-0.051, 0.749), 0.169, 0.0, (0.215, 0.18),
-                1.278, -1.769),
-               ("crossing_2", (-0.646, 2.414), (0.652, 2.245), 0.107, 2.934, (0.218, 0.194),
-                1.509, -0.129)]
-
-    def obstacles(t: float) -> list:
-        out = []
-        for name, start, end, speed, t0, axes, height, theta in scripts:
-            pos, vel = np.array(start), np.zeros(2)
-            if end is not None:  # walks to its end at its speed from t0, then stops
-                path = np.subtract(end, start)
-                length = float(np.hypot(*path))
-                walked = min(max(t - t0, 0.0) * speed, length)
-                pos = pos + path * walked / length
-                if 0.0 < walked < length:
-                    vel = path * speed / length
-            out.append(ObstacleInput(name, 0, np.array([*pos, 0.5 * height]),
-                                     np.array([*vel, 0.0]), np.array(axes), height, theta))
-        return out
-
-    for k in range(1500):
-        t = 0.02 * k
-        ref = planner.compute(RobotPose(robot.x, robot.y, robot.yaw, robot.z), t)
-        out = cycle.step(t, VelocityCommand(ref.vx, ref.vy, ref.vz, ref.yaw_rate), t,
-                         robot.base_state(t), obstacles(t), t)
-        for _ in range(5):
-            robot.step(out.command, 0.004)
+    obstacles = [
+        Walker("bench_0", (0.163, 1.394), semi_axes=(0.54, 0.165), extent=1.43,
+               orientation=2.934),
+        Walker("head_on_1", (0.697, 4.482), (-0.051, 0.749), 0.169, 0.0, (0.215, 0.18),
+               1.278, -1.769),
+        Walker("crossing_2", (-0.646, 2.414), (0.652, 2.245), 0.107, 2.934, (0.218, 0.194),
+               1.509, -0.129),
+    ]
+    goal_closed_loop(cycle, planner, robot, obstacles, 0.0, 30.0)
     return math.hypot(robot.x - goal[0], robot.y - goal[1])
