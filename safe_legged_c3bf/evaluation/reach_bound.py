@@ -96,21 +96,24 @@ class _Grid:
 
 
 def occupancy(grid: _Grid, obstacles: list[ObstacleConfig], times: np.ndarray,
-              radius: float) -> np.ndarray:
-    """``(len(times),) + grid shape`` bool: cells certainly inside a grown obstacle."""
+              radius: float, paths: list[np.ndarray | None]) -> np.ndarray:
+    """``(len(times),) + grid shape`` bool: cells certainly inside a grown obstacle.
+
+    ``paths``: per obstacle, its centres at ``times``, None if static.
+    """
     static = np.zeros_like(grid.x, dtype=bool)
-    out = np.empty((len(times),) + grid.x.shape, dtype=bool)
+    samples = len(times)
+    out = np.empty((samples,) + grid.x.shape, dtype=bool)
     movers = []
-    for obs in obstacles:
+    for obs, centres in zip(obstacles, paths, strict=True):
         a, b = obs.semi_axes
-        if moving(obs):
-            centres = scripted_centres(obs, times)
+        if centres is not None:
             travel = np.hypot(*np.diff(centres, axis=0, prepend=centres[:1]).T)
             movers.append((centres, min(a, b) + radius - 0.5 * float(travel.max())))
         else:
             static |= grid.inside_ellipse(obs.position[:2], a + radius, b + radius,
                                           obs.orientation)
-    for k in range(len(times)):
+    for k in range(samples):
         out[k] = static
         for centres, r in movers:
             out[k] |= grid.inside_ellipse(centres[k], r, r, 0.0)
@@ -165,14 +168,13 @@ def reach_bound(scenario: Scenario) -> ReachBound:
     goal = np.asarray(scenario.goal.position[:2], dtype=float)
     vertical = [o for o in scenario.obstacles if o.plane == "vertical"]
     times = np.arange(0.0, float(scenario.duration) + STEP / 2, STEP)
+    paths = [scripted_centres(o, times) if moving(o) else None for o in vertical]
     points = [start, goal] + [np.asarray(o.position[:2], float) for o in vertical]
-    for o in vertical:
-        if moving(o):
-            points.extend(scripted_centres(o, times[::10]))
-    grid = _Grid(np.array(points))
+    points += [c for c in paths if c is not None]
+    grid = _Grid(np.vstack(points))
     goal_cells = grid.near(goal, float(scenario.goal.tolerance))
     cruise = float(scenario.planner.speed or PlannerConfig().max_vx)
-    blocked = occupancy(grid, vertical, times, TRUNK_RADIUS[scenario.robot.kind])
+    blocked = occupancy(grid, vertical, times, TRUNK_RADIUS[scenario.robot.kind], paths)
     cell = grid.cell(start)
     nothing = np.broadcast_to(np.zeros((1,) + grid.x.shape, dtype=bool), blocked.shape)
     free = earliest_arrival(nothing, cell, goal_cells, cruise)
